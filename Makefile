@@ -1,0 +1,54 @@
+# marl_mrta: set-up, build, test, demo and benchmarks in one place.
+#   make demo   set up, build, run the main job on the default scenario, write results/
+#   make test   set up, build, run every test (gtest, pytest, rostest)
+#   make bench  run the benchmarks, write results/*.json and print a table
+SHELL := /bin/bash
+.SHELLFLAGS := -eo pipefail -c
+.DEFAULT_GOAL := help
+
+PKG_DIR := $(patsubst %/,%,$(dir $(abspath $(lastword $(MAKEFILE_LIST)))))
+VENV    ?= $(PKG_DIR)/.venv
+# Build inside the enclosing catkin workspace when the checkout sits in one's src/,
+# otherwise in a workspace of our own inside the checkout (git-ignored).
+ENCLOSING_WS := $(abspath $(PKG_DIR)/../..)
+ifneq ($(wildcard $(PKG_DIR)/../CMakeLists.txt $(ENCLOSING_WS)/.catkin_workspace),)
+  WS ?= $(ENCLOSING_WS)
+else
+  WS ?= $(PKG_DIR)/.ws
+endif
+JOBS ?= $(shell nproc)
+
+# /usr/bin before any other python3 (ROS runs on the system interpreter); the venv adds torch & co.
+export PATH := $(VENV)/bin:/usr/bin:/bin:$(PATH)
+ROS_ENV := source $(WS)/devel/setup.bash
+CATKIN_ARGS := -DPYTHON_EXECUTABLE=$(VENV)/bin/python3 -DCMAKE_BUILD_TYPE=Release -DCATKIN_ENABLE_TESTING=ON
+
+.PHONY: help setup build test demo bench lint clean
+help:
+	@sed -n '2,5p' $(PKG_DIR)/Makefile | sed 's/^# *//'
+
+setup:
+	@bash $(PKG_DIR)/tools/bootstrap.sh
+
+$(WS)/src/marl_mrta:
+	@mkdir -p $(WS)/src
+	@ln -sfn $(PKG_DIR) $(WS)/src/marl_mrta
+
+build: setup | $(WS)/src/marl_mrta
+	@cd $(WS) && catkin_make -j$(JOBS) $(CATKIN_ARGS)
+
+test: build
+	@cd $(WS) && $(ROS_ENV) && catkin_make -j1 $(CATKIN_ARGS) run_tests
+	@cd $(WS) && $(ROS_ENV) && catkin_test_results build/test_results/marl_mrta
+
+demo: build
+	@$(ROS_ENV) && $(PKG_DIR)/tools/demo.sh
+
+bench: build
+	@$(ROS_ENV) && $(PKG_DIR)/tools/bench.sh
+
+lint:
+	@catkin_lint -W2 --strict $(PKG_DIR)
+
+clean:
+	rm -rf $(PKG_DIR)/.ws

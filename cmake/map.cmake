@@ -1,0 +1,1 @@
+# Occupancy maps in map_server YAML + PGM format (shared by the simulator and navigation).

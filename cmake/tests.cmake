@@ -1,0 +1,13 @@
+# pytest (ROS-free Python cores) and rostest (the ROS graph). gtests are declared beside
+# the core they test (cmake/<subsystem>.cmake). All results land in catkin's test results
+# directory so that `catkin_test_results` sees every failure.
+find_package(rostest REQUIRED)
+
+catkin_run_tests_target("pytest" "python" "pytest-python.xml"
+  COMMAND "${PYTHON_EXECUTABLE} -m pytest -q -p no:cacheprovider ${PROJECT_SOURCE_DIR}/test/python --junitxml=${CATKIN_TEST_RESULTS_DIR}/${PROJECT_NAME}/pytest-python.xml"
+  WORKING_DIRECTORY ${PROJECT_SOURCE_DIR})
+
+file(GLOB MARL_MRTA_ROSTESTS RELATIVE ${PROJECT_SOURCE_DIR} test/rostest/*.test)
+foreach(launch_file ${MARL_MRTA_ROSTESTS})
+  add_rostest(${launch_file})
+endforeach()

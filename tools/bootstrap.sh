@@ -1,0 +1,93 @@
+#!/usr/bin/env bash
+# Installs everything marl_mrta needs on a fresh machine. Idempotent: a second run
+# installs nothing. Uses sudo only when not already root.
+#   Debian 12    : Debian's ROS 1 packages + a venv (system site packages) with torch CPU
+#   Ubuntu 20.04 : ros-noetic-* from packages.ros.org (incl. the navigation stack) + the same venv
+set -euo pipefail
+
+here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+venv=${MARL_MRTA_VENV:-$here/.venv}
+stamp=$venv/.bootstrap-stamp
+
+if [ "$(id -u)" -eq 0 ]; then SUDO=""; else SUDO="sudo"; fi
+export DEBIAN_FRONTEND=noninteractive
+
+. /etc/os-release
+os="${ID:-unknown}-${VERSION_ID:-unknown}"
+
+debian_pkgs=(
+  build-essential cmake catkin catkin-lint googletest libgtest-dev libyaml-cpp-dev
+  libroscpp-dev librosconsole-dev libstd-msgs-dev libgeometry-msgs-dev libsensor-msgs-dev
+  libnav-msgs-dev libstd-srvs-dev libvisualization-msgs-dev libros-rosgraph-msgs-dev
+  libtf2-ros-dev libtf2-geometry-msgs-dev libactionlib-dev libactionlib-msgs-dev
+  libmove-base-msgs-dev liblaser-geometry-dev ros-message-generation ros-message-runtime
+  python3-rospy python3-rostest librostest-dev python3-roslaunch python3-rosunit
+  python3-tf2-ros python3-actionlib python3-move-base-msgs python3-nav-msgs
+  python3-sensor-msgs python3-geometry-msgs python3-std-msgs python3-std-srvs
+  python3-visualization-msgs python3-rosgraph-msgs python3-rostopic python3-rosnode
+  python3-rosservice python3-rosmsg rosbash rviz ros-robot-state-publisher
+  python3-venv python3-pip python3-yaml python3-numpy python3-matplotlib python3-pytest
+  ros-std-msgs ros-geometry-msgs ros-sensor-msgs ros-nav-msgs ros-std-srvs ros-actionlib-msgs
+  ros-move-base-msgs ros-visualization-msgs ros-rosgraph-msgs
+  xvfb imagemagick x11-utils
+)
+noetic_pkgs=(
+  build-essential cmake python3-catkin-lint python3-venv python3-pip python3-pytest
+  ros-noetic-ros-base ros-noetic-rostest ros-noetic-rviz ros-noetic-robot-state-publisher
+  ros-noetic-xacro ros-noetic-tf2-ros ros-noetic-tf2-geometry-msgs ros-noetic-actionlib
+  ros-noetic-laser-geometry ros-noetic-move-base-msgs ros-noetic-nav-msgs
+  ros-noetic-visualization-msgs ros-noetic-std-srvs
+  ros-noetic-move-base ros-noetic-amcl ros-noetic-map-server ros-noetic-navfn
+  ros-noetic-dwa-local-planner ros-noetic-costmap-2d ros-noetic-fake-localization
+  libyaml-cpp-dev libgtest-dev python3-yaml python3-numpy python3-matplotlib
+  xvfb imagemagick x11-utils
+)
+
+missing() {  # prints the packages of "$@" that dpkg does not have installed
+  local p
+  for p in "$@"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || echo "$p"
+  done
+}
+
+case "$os" in
+  debian-12)
+    pkgs=("${debian_pkgs[@]}")
+    torch_spec="torch==2.13.0"   # the CPU wheel; a bare 'torch' would pull a CUDA build
+    torch_index=()
+    ;;
+  ubuntu-20.04)
+    if [ ! -f /etc/apt/sources.list.d/ros-latest.list ]; then
+      echo "bootstrap: Ubuntu 20.04 needs the ROS apt source: see http://wiki.ros.org/noetic/Installation/Ubuntu" >&2
+      exit 1
+    fi
+    pkgs=("${noetic_pkgs[@]}")
+    torch_spec="torch>=1.13,<2.5"   # the last releases for Python 3.8
+    torch_index=(--index-url https://download.pytorch.org/whl/cpu)
+    ;;
+  *)
+    echo "bootstrap: unsupported OS '$os' (supported: Debian 12, Ubuntu 20.04 with ROS Noetic)" >&2
+    exit 1
+    ;;
+esac
+
+todo=$(missing "${pkgs[@]}")
+if [ -n "$todo" ]; then
+  echo "bootstrap: installing $(echo "$todo" | wc -l) system packages"
+  log=$(mktemp)
+  # shellcheck disable=SC2086
+  if ! { $SUDO apt-get update -qq && $SUDO apt-get install -y -qq --no-install-recommends $todo; } >"$log" 2>&1; then
+    tail -n 30 "$log" >&2
+    echo "bootstrap: apt-get failed (full log: $log)" >&2
+    exit 1
+  fi
+  rm -f "$log"
+fi
+
+if [ ! -f "$stamp" ] || [ "$here/requirements.txt" -nt "$stamp" ]; then
+  [ -x "$venv/bin/python3" ] || /usr/bin/python3 -m venv --system-site-packages "$venv"
+  "$venv/bin/python3" -m pip install -q --disable-pip-version-check --no-warn-conflicts "${torch_index[@]}" "$torch_spec"
+  "$venv/bin/python3" -m pip install -q --disable-pip-version-check --no-warn-conflicts -r "$here/requirements.txt"
+  touch "$stamp"
+fi
+echo "bootstrap: ready ($os, venv $venv)"
