@@ -38,7 +38,9 @@ build: setup | $(WS)/src/marl_mrta
 	@cd $(WS) && catkin_make -j$(JOBS) $(CATKIN_ARGS)
 
 test: build
+	@rm -rf $(WS)/build/test_results/marl_mrta
 	@cd $(WS) && $(ROS_ENV) && catkin_make -j1 $(CATKIN_ARGS) run_tests
+	@cd $(WS) && $(ROS_ENV) && python3 $(PKG_DIR)/tools/test_summary.py build/test_results/marl_mrta
 	@cd $(WS) && $(ROS_ENV) && catkin_test_results build/test_results/marl_mrta
 
 demo: build
