@@ -1,0 +1,1 @@
+"""Baseline planners: random, GA with logic, exact (proven optimum), sequential single-item auction."""

@@ -1,0 +1,197 @@
+"""The exact baseline: the minimum makespan under the environment's own step rules, proven.
+
+Model. A state is (finished tasks, node of every robot). A move is any joint action of the
+environment (each robot: any task, including finished ones and tasks another robot also
+picks, or None; all-None is left out since it only burns the idle step). Its cost is the
+step duration of tasks/rules.py with nominal travel times; moves that would finish a task
+before one of its predecessors are excluded, since the goal is a complete, logic-consistent
+episode. The minimum makespan is the cheapest path to "all finished".
+
+Search. A* with an admissible heuristic, re-opening a state whenever a cheaper path to it is
+found, so the first goal state taken from the queue is optimal; the proof is the search
+itself (every state with a lower f was expanded). Lower bounds used:
+- per open task j: it cannot be finished before some robot gets there (shortest chain of
+  legs, i.e. travel times closed under Floyd–Warshall) nor before its predecessors are
+  finished; plus its service time;
+- the open tasks' cheapest incoming legs and service times, shared over the robots.
+
+All joint actions of a state are evaluated at once with numpy: this is a batched copy of the
+rules of tasks/rules.py, kept identical by test_task_exact.py, which compares both on random
+states and checks the solver against brute-force enumeration through rules.py.
+"""
+from __future__ import annotations
+
+import heapq
+import itertools
+import math
+from typing import Dict, List, Optional, Tuple
+
+import numpy as np
+
+from .plan import Plan, SchedulingInstance, simulate_joint_actions
+
+_EPS = 1e-9
+
+
+class BatchedRules:
+    """tasks/rules.py for every joint action of one state at once (nominal times, no time limit)."""
+
+    def __init__(self, instance: SchedulingInstance):
+        n_r, n_t = instance.n_robots, instance.n_tasks
+        self.n_r, self.n_t = n_r, n_t
+        self.travel = np.asarray(instance.travel, dtype=float)
+        combos = np.array(list(itertools.product(range(n_t + 1), repeat=n_r)), dtype=np.int64)
+        self.actions = combos[(combos < n_t).any(axis=1)]          # drop all-None
+        self.has_goal = self.actions < n_t
+        self.onehot = self.actions[:, :, None] == np.arange(n_t)[None, None, :]
+        self.service = np.asarray(instance.service, dtype=float)
+        self.pred = np.zeros((n_t, n_t), dtype=bool)               # pred[j, p]: p before j
+        for j, preds in enumerate(instance.predecessors):
+            self.pred[j, list(preds)] = True
+        self.robot_index = np.arange(n_r)
+        self.min_step = instance.min_step
+
+    def evaluate(self, done: np.ndarray, pos: np.ndarray):
+        """For every joint action: valid flag, step duration, finished-after mask, new positions."""
+        n_r, n_t = self.n_r, self.n_t
+        nav_by_action = np.zeros((n_r, n_t + 1))
+        nav_by_action[:, :n_t] = self.travel[pos][:, n_r:]
+        nav = nav_by_action[self.robot_index[None, :], self.actions]          # (B, n_r)
+        arrivals = np.where(self.onehot, nav[:, :, None], np.inf)             # (B, n_r, n_t)
+        first_arrival = arrivals.min(axis=1)                                   # (B, n_t)
+        finisher = arrivals.argmin(axis=1)                                     # lowest index on ties
+        newly = np.isfinite(first_arrival) & ~done[None, :]
+        finish_rel = first_arrival + self.service[None, :]
+        # Task j's finisher is in order if each predecessor p was finished before this step,
+        # or in this step strictly before j's arrival.
+        before = newly[:, None, :] & (finish_rel[:, None, :] < first_arrival[:, :, None])
+        in_order = (~self.pred[None, :, :] | done[None, None, :] | before).all(axis=2)
+        valid = (in_order | ~newly).all(axis=1)
+        finisher_mask = self.onehot & newly[:, None, :] & (finisher[:, None, :] == self.robot_index[None, :, None])
+        busy = nav + (finisher_mask * self.service[None, None, :]).sum(axis=2)
+        duration = np.maximum(busy.max(axis=1), self.min_step)
+        new_pos = np.where(self.has_goal, n_r + self.actions, pos[None, :])
+        new_done = done[None, :] | newly
+        return valid, duration, new_done, new_pos
+
+
+class _Bounds:
+    """Admissible lower bounds on the remaining makespan (see the module docstring)."""
+
+    def __init__(self, instance: SchedulingInstance):
+        n_r, n_t = instance.n_robots, instance.n_tasks
+        closure = np.asarray(instance.travel, dtype=float).copy()
+        np.fill_diagonal(closure, 0.0)
+        for k in range(closure.shape[0]):                                     # Floyd–Warshall
+            closure = np.minimum(closure, closure[:, k:k + 1] + closure[k:k + 1, :])
+        self.to_task = closure[:, n_r:]                                       # (nodes, n_t)
+        incoming = np.asarray(instance.travel, dtype=float)[:, n_r:].copy()
+        incoming[n_r + np.arange(n_t), np.arange(n_t)] = np.inf               # a task's leg comes from elsewhere
+        self.min_incoming = incoming.min(axis=0) + np.asarray(instance.service)
+        self.service = np.asarray(instance.service, dtype=float)
+        self.preds = [list(p) for p in instance.predecessors]
+        self.order = _topological_order(self.preds)
+        self.n_r = n_r
+
+    def __call__(self, done: np.ndarray, pos: np.ndarray) -> np.ndarray:
+        """done (B, n_t) bool, pos (B, n_r) -> (B,) lower bounds."""
+        reach = self.to_task[pos].min(axis=1)                                 # (B, n_t) earliest arrival
+        finish = np.zeros_like(reach)
+        for j in self.order:
+            start = reach[:, j]
+            for p in self.preds[j]:
+                start = np.maximum(start, finish[:, p])
+            finish[:, j] = np.where(done[:, j], 0.0, start + self.service[j])
+        chain = finish.max(axis=1)
+        shared = np.where(done, 0.0, self.min_incoming[None, :]).sum(axis=1) / self.n_r
+        return np.maximum(chain, shared)
+
+
+def _topological_order(preds: List[List[int]]) -> List[int]:
+    order: List[int] = []
+    placed = set()
+    while len(order) < len(preds):
+        for j in range(len(preds)):
+            if j not in placed and all(p in placed for p in preds[j]):
+                order.append(j)
+                placed.add(j)
+    return order
+
+
+def solve_exact(instance: SchedulingInstance, max_expansions: int = 2_000_000,
+                upper_bound: Optional[float] = None) -> Plan:
+    """A* over (finished set, robot nodes). upper_bound: makespan of a known logic-consistent
+    plan (prunes the search; the optimum is still found when it equals the bound)."""
+    rules = BatchedRules(instance)
+    bounds = _Bounds(instance)
+    n_r, n_t = instance.n_robots, instance.n_tasks
+    n_nodes = n_r + n_t
+    weights = (n_nodes ** np.arange(n_r)).astype(np.int64) << n_t
+    bits = (1 << np.arange(n_t)).astype(np.int64)
+
+    def encode(done: np.ndarray, pos: np.ndarray) -> np.ndarray:
+        return (done.astype(np.int64) * bits).sum(axis=-1) + (pos.astype(np.int64) * weights).sum(axis=-1)
+
+    def decode(key: int) -> Tuple[np.ndarray, np.ndarray]:
+        done = ((key & ((1 << n_t) - 1)) >> np.arange(n_t)) & 1
+        rest = key >> n_t
+        pos = np.array([(rest // n_nodes ** r) % n_nodes for r in range(n_r)], dtype=np.int64)
+        return done.astype(bool), pos
+
+    all_done = (1 << n_t) - 1
+    start_done = np.zeros(n_t, dtype=bool)
+    start_pos = np.arange(n_r, dtype=np.int64)
+    start_key = int(encode(start_done, start_pos))
+    limit = math.inf if upper_bound is None else upper_bound + 1e-6
+    best_g: Dict[int, float] = {start_key: 0.0}
+    parent: Dict[int, Tuple[int, int]] = {}
+    h0 = float(bounds(start_done[None, :], start_pos[None, :])[0])
+    queue = [(h0, 0.0, start_key)]
+    expansions = 0
+    goal_key = None
+    while queue:
+        f, g, key = heapq.heappop(queue)
+        if g > best_g.get(key, math.inf) + _EPS:
+            continue                                            # a cheaper path reached it meanwhile
+        if key & all_done == all_done:
+            goal_key = key
+            break
+        expansions += 1
+        if expansions > max_expansions:
+            break
+        done, pos = decode(key)
+        valid, duration, new_done, new_pos = rules.evaluate(done, pos)
+        g_new = g + duration
+        keep = valid.copy()
+        f_new = np.full(len(valid), math.inf)
+        h = bounds(new_done[keep], new_pos[keep])
+        f_new[keep] = g_new[keep] + h
+        keep &= f_new <= limit
+        if not keep.any():
+            continue
+        idx = np.nonzero(keep)[0]
+        keys = encode(new_done[idx], new_pos[idx])
+        order = np.lexsort((g_new[idx], keys))                  # per key, cheapest first
+        keys, idx = keys[order], idx[order]
+        first = np.ones(len(keys), dtype=bool)
+        first[1:] = keys[1:] != keys[:-1]
+        for k, i in zip(keys[first].tolist(), idx[first].tolist()):
+            gk = float(g_new[i])
+            if gk < best_g.get(k, math.inf) - _EPS:
+                best_g[k] = gk
+                parent[k] = (key, i)
+                heapq.heappush(queue, (float(f_new[i]), gk, k))
+    if goal_key is None:
+        lower = queue[0][0] if queue else math.inf
+        return Plan("exact", [[] for _ in range(n_r)], [], math.inf, 0, proven_optimal=False,
+                    details={"expansions": expansions, "lower_bound": lower, "status": "limit reached or no plan under the bound"})
+    joint_actions: List[List[Optional[int]]] = []
+    key = goal_key
+    while key != start_key:
+        prev, action_index = parent[key]
+        joint_actions.append([int(a) if a < n_t else None for a in rules.actions[action_index]])
+        key = prev
+    joint_actions.reverse()
+    run = simulate_joint_actions(instance, joint_actions)
+    return Plan("exact", run.robot_tasks, run.joint_actions, run.elapsed, run.violations, proven_optimal=True,
+                details={"expansions": expansions, "states": len(best_g), "optimal_makespan": best_g[goal_key]})

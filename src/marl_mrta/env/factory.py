@@ -1,0 +1,58 @@
+"""Build a task-allocation environment from a scenario file and the package's configuration."""
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+from typing import Optional, Union
+
+from ..scenario import Scenario, ScenarioError, load_scenario
+from ..tasks.config_reader import ConfigError
+from ..tasks.reward import RewardConfig
+from ..tasks.travel import TravelTable, nominal_travel_table
+from .embedded import EmbeddedExecutor
+from .executor import Executor
+from .settings import MASK_MODES, load_embedded_settings, load_task_settings
+from .task_env import TaskEnvironment
+
+#: Executors an environment can be built with here (the ROS executor lives with the ROS nodes).
+EXECUTORS = ("embedded",)
+
+
+def scenario_travel_table(scenario: Scenario, embedded_config: Optional[Union[str, Path]] = None) -> TravelTable:
+    """The nominal travel-time table of a scenario under the configured travel model."""
+    return nominal_travel_table(scenario, load_embedded_settings(embedded_config).travel)
+
+
+def make_env(scenario: Union[str, Path, Scenario], executor: Union[str, Executor] = "embedded", *,
+             profile: Optional[str] = None, mask: Optional[str] = None, seed: Optional[int] = None,
+             reward_config: Optional[Union[str, Path]] = None, task_config: Optional[Union[str, Path]] = None,
+             embedded_config: Optional[Union[str, Path]] = None) -> TaskEnvironment:
+    """An environment on `scenario` (file or loaded Scenario).
+
+    executor: "embedded", or an Executor object (e.g. the ROS executor) that moves the robots;
+    profile: a noise profile of config/task_embedded.yaml (default: its `profile`; embedded
+    only); mask: none | finished | logic (default: config/task.yaml); seed: of the first
+    reset() without a seed. Raises ScenarioError or ConfigError with a one-line message.
+    """
+    if not isinstance(scenario, Scenario):
+        scenario = load_scenario(scenario)
+    if isinstance(executor, str) and executor not in EXECUTORS:
+        raise ConfigError(f"executor: {executor!r} is not one of {', '.join(EXECUTORS)}")
+    settings = load_task_settings(task_config)
+    if mask is not None:
+        if mask not in MASK_MODES:
+            raise ConfigError(f"mask: {mask!r} is not one of {', '.join(MASK_MODES)}")
+        settings = replace(settings, mask=mask)
+    try:
+        reward = RewardConfig.load(scenario.nav_thresholds, reward_config, scenario.reward_overrides)
+    except ConfigError as error:
+        raise ScenarioError(f"{scenario.source}: <reward>: {error}") from None
+    if not isinstance(executor, str):
+        grid_map = scenario.load_map()
+        bounds = (grid_map.origin.x, grid_map.origin.y, grid_map.width * grid_map.resolution,
+                  grid_map.height * grid_map.resolution)
+        return TaskEnvironment(scenario, executor, reward, settings, bounds, seed)
+    embedded = load_embedded_settings(embedded_config)
+    table = nominal_travel_table(scenario, embedded.travel)
+    runner = EmbeddedExecutor(table, scenario.n_robots, embedded.profile(profile), settings.goal_timeout, seed)
+    return TaskEnvironment(scenario, runner, reward, settings, table.map_bounds, seed)

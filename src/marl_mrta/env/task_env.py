@@ -1,0 +1,194 @@
+"""The decision process of Algorithm 1 over any executor: the one implementation of the task rules.
+
+One step: every robot gets a task index or None (index n_tasks); the executor drives the
+robots; tasks/rules.py decides finishes, order and timing; tasks/reward.py scores each robot;
+the episode ends when every task is finished (done) or at the timeout or an abort (truncated).
+"""
+from __future__ import annotations
+
+from typing import List, Optional, Sequence
+
+import numpy as np
+
+from ..scenario import Scenario
+from ..tasks.reward import RewardConfig, step_rewards
+from ..tasks.rules import resolve_step
+from ..tasks.schedule import EpisodeRecord, ScheduleEntry
+from .api import REWARD_COMPONENTS, StepOutput
+from .executor import Executor
+from .observation import ObservationEncoder
+from .settings import TaskSettings
+
+
+class TaskEnvironment:
+    """Implements env.api.TaskAllocationEnv for one scenario and one executor."""
+
+    def __init__(self, scenario: Scenario, executor: Executor, reward: RewardConfig, settings: TaskSettings,
+                 map_bounds, seed: Optional[int] = None):
+        self.scenario = scenario
+        self.executor = executor
+        self.reward = reward
+        self.settings = settings
+        self.n_agents = scenario.n_robots
+        self.n_tasks = scenario.n_tasks
+        self.n_actions = scenario.n_tasks + 1
+        self.encoder = ObservationEncoder(scenario, map_bounds)
+        self.obs_dim = self.encoder.obs_dim
+        self.state_dim = self.encoder.state_dim
+        self._predecessors = [list(p) for p in scenario.predecessors]
+        self._service = [t.service_time for t in scenario.tasks]
+        self._goal_xy = [(t.goal.x, t.goal.y) for t in scenario.tasks]
+        self._next_seed = seed
+        self.record: Optional[EpisodeRecord] = None
+
+    # ------------------------------------------------------------------ interface
+
+    def reset(self, seed: Optional[int] = None) -> StepOutput:
+        if seed is None:
+            seed, self._next_seed = self._next_seed, None
+        self.executor.reset(seed)
+        n, m = self.n_agents, self.n_tasks
+        self.elapsed = 0.0
+        self.step_index = 0
+        self.finished = [False] * m
+        self.finish_time: List[Optional[float]] = [None] * m
+        self.finished_by: List[Optional[int]] = [None] * m
+        self.task_correct: List[Optional[bool]] = [None] * m
+        self.n_finished = 0
+        poses = self.executor.poses()
+        self.current_task: List[Optional[int]] = [None] * n
+        self.previous_task: List[Optional[int]] = [None] * n
+        self.current_goal = [(p[0], p[1]) for p in poses]
+        self.previous_goal = list(self.current_goal)
+        self.reached = [False] * n
+        self.last_nav = [0.0] * n
+        self.last_step = 0.0
+        self.over = False
+        s = self.scenario
+        self.record = EpisodeRecord(s.name, [r.id for r in s.robots], [t.id for t in s.tasks],
+                                    finish_time=self.finish_time, finished_by=self.finished_by,
+                                    task_logic_correct=self.task_correct, nav_time=[0.0] * n,
+                                    idle_time=[0.0] * n, collisions=[0] * n)
+        return self._output(poses, np.zeros(n, dtype=np.float32),
+                            {name: np.zeros(n, dtype=np.float32) for name in REWARD_COMPONENTS}, False, False,
+                            {"step": 0, "elapsed": 0.0, "finished": list(self.finished)})
+
+    def step(self, actions: Sequence[int]) -> StepOutput:
+        if self.record is None or self.over:
+            raise RuntimeError("step() called before reset() or after the episode ended")
+        if len(actions) != self.n_agents:
+            raise ValueError(f"expected {self.n_agents} actions, got {len(actions)}")
+        none = self.n_tasks
+        values = [int(a) for a in actions]
+        if min(values) < 0 or max(values) > none:
+            raise ValueError(f"actions {values} outside 0..{none}")
+        goals: List[Optional[int]] = [None if a == none else a for a in values]
+
+        start = self.elapsed
+        time_limit = self.scenario.episode_timeout - start
+        poses_before = self.executor.poses()
+        outcome = self.executor.start_step(goals, time_limit)
+        robots = outcome.robots
+        resolution = resolve_step(goals, [r.nav_time for r in robots], [r.reached for r in robots],
+                                  [r.collisions for r in robots], self.finished, self._predecessors,
+                                  self._service, time_limit, self.settings.min_step)
+        self.executor.finish_step(resolution.duration)
+        has_task = [g is not None for g in goals]
+        correct = resolution.correct_order
+        finished_now = resolution.robot_finished
+        nav = resolution.nav_time
+        idle = resolution.idle_time
+        collisions = resolution.collisions
+        reached = resolution.reached
+        rewards = step_rewards(self.reward, has_task, correct, finished_now, nav, collisions, idle)
+
+        record = self.record
+        n_before = self.n_finished
+        order_of = {}
+        for k, done in enumerate(resolution.finished):
+            self.finished[done.task] = True
+            self.finish_time[done.task] = start + done.finish_time
+            self.finished_by[done.task] = done.robot
+            self.task_correct[done.task] = correct[done.robot]
+            order_of[done.task] = n_before + k + 1
+        self.n_finished = n_before + len(resolution.finished)
+        for i, goal in enumerate(goals):
+            record.nav_time[i] += nav[i]
+            record.idle_time[i] += idle[i]
+            record.collisions[i] += collisions[i]
+            if goal is not None:
+                fin = finished_now[i]
+                record.entries.append(ScheduleEntry(
+                    i, goal, self.step_index, start, start + nav[i] if reached[i] else None, start + nav[i], fin,
+                    order_of[goal] if fin else None, correct[i], start + resolution.busy_time[i] if fin else None))
+        record.step_durations.append(resolution.duration)
+        record.joint_actions.append(goals)
+
+        self.previous_task = self.current_task
+        self.current_task = goals
+        self.previous_goal = self.current_goal
+        goal_xy = self._goal_xy
+        self.current_goal = [goal_xy[g] if g is not None else (p[0], p[1]) for g, p in zip(goals, poses_before)]
+        self.reached = reached
+        self.last_nav = nav
+        self.last_step = resolution.duration
+        self.elapsed = start + resolution.duration
+        self.step_index += 1
+
+        done = self.n_finished == self.n_tasks
+        truncated = not done and (outcome.aborted or self.elapsed >= self.scenario.episode_timeout - 1e-9)
+        info = {
+            "step": self.step_index, "elapsed": self.elapsed, "step_duration": resolution.duration,
+            "finished": list(self.finished), "nav_time": nav, "idle_time": idle, "collisions": collisions,
+            "reached": reached, "finished_task": [g if f else None for g, f in zip(goals, finished_now)],
+            "correct_order": correct, "failure": [r.failure for r in robots],
+            "finish_order": [order_of[g] if f else None for g, f in zip(goals, finished_now)],
+        }
+        if done or truncated:
+            self.over = True
+            record.makespan = self.elapsed
+            record.complete = done
+            record.truncated = truncated
+            record.abort_reason = outcome.abort_reason if outcome.aborted else ""
+            info["episode"] = record
+            if outcome.aborted:
+                info["abort_reason"] = outcome.abort_reason
+        table = np.array([rewards.logic, rewards.nav, rewards.collision, rewards.idle, rewards.total],
+                         dtype=np.float32)
+        components = {"logic": table[0], "nav": table[1], "collision": table[2], "idle": table[3]}
+        return self._output(self.executor.poses(), table[4], components, done, truncated, info)
+
+    # ------------------------------------------------------------------ helpers
+
+    def ready_flags(self) -> List[bool]:
+        """Per task: still open and every predecessor finished."""
+        fin = self.finished
+        ready = []
+        for j, preds in enumerate(self._predecessors):
+            ok = not fin[j]
+            if ok:
+                for p in preds:
+                    if not fin[p]:
+                        ok = False
+                        break
+            ready.append(ok)
+        return ready
+
+    def action_mask_row(self, ready: Sequence[bool]) -> List[bool]:
+        mode = self.settings.mask
+        if mode == "none":
+            return [True] * self.n_actions
+        if mode == "finished":
+            return [not f for f in self.finished] + [True]
+        return list(ready) + [True]
+
+    def _output(self, poses, rewards, components, done, truncated, info) -> StepOutput:
+        ready = self.ready_flags()
+        obs = self.encoder.encode(self.step_index, self.elapsed, poses, self.current_task, self.previous_task,
+                                  self.current_goal, self.previous_goal, self.reached, self.last_nav,
+                                  self.last_step, self.finished, ready)
+        state = self.encoder.state(obs, self.step_index, self.elapsed, self.finish_time, self.task_correct)
+        mask = np.empty((self.n_agents, self.n_actions), dtype=bool)
+        mask[:] = self.action_mask_row(ready)
+        return StepOutput(obs=obs, state=state, rewards=rewards, reward_components=components, done=done,
+                          truncated=truncated, action_mask=mask, info=info)

@@ -1,0 +1,167 @@
+"""`evaluate`: run methods through the environment and print the paper's Tables 8–9.
+
+    evaluate --method random,ga,auction,exact --scenario scenarios/lab_2r.xml --episodes 20 \
+             --executor embedded --seed 0 --out results/eval_lab_2r.json
+
+Writes the JSON (summaries, plans, the exact reference, representative episodes) and one
+Gantt chart PNG per method (<out stem>_<method>_gantt.png). Bad input -> one line, exit 2.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from pathlib import Path
+from typing import Any, Dict, List, Optional, Sequence
+
+from ..baselines.auction import solve_auction
+from ..baselines.exact import solve_exact
+from ..baselines.ga import solve_ga
+from ..baselines.plan import Plan, SchedulingInstance
+from ..baselines.random_policy import RandomPolicy
+from ..baselines.settings import load_baseline_settings
+from ..env.factory import EXECUTORS, make_env
+from ..env.settings import MASK_MODES
+from ..scenario import ScenarioError
+from ..tasks.config_reader import ConfigError, package_root
+from .gantt import plot_gantt
+from .policies import LearnedPolicy, PlanPolicy, PolicyLoadError
+from .runner import ProgressLine, format_table, run_episodes, summarize
+
+METHODS = ("random", "ga", "exact", "auction", "policy")
+
+
+class UsageError(ValueError):
+    """Bad command-line input; one line."""
+
+
+def parse_args(argv: Optional[Sequence[str]] = None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(prog="evaluate", description=__doc__.split("\n\n")[0])
+    parser.add_argument("--method", required=True,
+                        help=f"one or more of {', '.join(METHODS)}, comma-separated")
+    parser.add_argument("--scenario", default=str(package_root() / "scenarios" / "lab_2r.xml"),
+                        help="scenario XML file (default: scenarios/lab_2r.xml)")
+    parser.add_argument("--episodes", type=int, default=20, help="episodes per method (default 20)")
+    parser.add_argument("--executor", default="embedded", choices=EXECUTORS, help="executor (default embedded)")
+    parser.add_argument("--profile", default=None,
+                        help="embedded noise profile of config/task_embedded.yaml (default: its `profile`)")
+    parser.add_argument("--mask", default=None, choices=MASK_MODES, help="action masks (default: config/task.yaml)")
+    parser.add_argument("--policy", default=None, help="actor file for --method policy")
+    parser.add_argument("--seed", type=int, default=0, help="seed of episodes and planners (default 0)")
+    parser.add_argument("--out", default=None,
+                        help="JSON output file (default results/evaluate_<scenario>_<methods>.json)")
+    parser.add_argument("--no-exact", action="store_true", help="skip the exact reference (no ratio column)")
+    parser.add_argument("--quiet", action="store_true", help="no progress line")
+    args = parser.parse_args(argv)
+    methods = [m.strip() for m in args.method.split(",") if m.strip()]
+    unknown = [m for m in methods if m not in METHODS]
+    if not methods or unknown:
+        raise UsageError(f"--method: {', '.join(unknown) or 'nothing given'}: choose from {', '.join(METHODS)}")
+    if args.episodes < 1:
+        raise UsageError(f"--episodes: must be at least 1, got {args.episodes}")
+    if "policy" in methods and not args.policy:
+        raise UsageError("--policy: the policy method needs an actor file (--policy path/to/actor.pt)")
+    args.methods = methods
+    return args
+
+
+def plan_for(method: str, instance: SchedulingInstance, settings, seed: int) -> Plan:
+    if method == "ga":
+        return solve_ga(instance, settings.ga, seed=seed)
+    if method == "auction":
+        return solve_auction(instance, settings.auction_objective)
+    if method == "exact":
+        return exact_reference(instance, settings)
+    raise ValueError(method)
+
+
+def exact_reference(instance: SchedulingInstance, settings) -> Plan:
+    """The proven optimum, with the auction's consistent plan as the search's first bound."""
+    auction = solve_auction(instance, settings.auction_objective)
+    bound = auction.makespan if auction.logic_violations == 0 else None
+    return solve_exact(instance, settings.exact_max_expansions, upper_bound=bound)
+
+
+def plan_json(plan: Plan, task_ids: Sequence[str]) -> Dict[str, Any]:
+    return {"method": plan.method, "makespan": plan.makespan, "logic_violations": plan.logic_violations,
+            "proven_optimal": plan.proven_optimal, "robot_tasks": plan.describe(task_ids),
+            "joint_actions": [[None if a is None else task_ids[a] for a in step] for step in plan.joint_actions],
+            "details": plan.details}
+
+
+def evaluate(args: argparse.Namespace) -> int:
+    env = make_env(args.scenario, args.executor, profile=args.profile, mask=args.mask, seed=args.seed)
+    scenario = env.scenario
+    settings = load_baseline_settings()
+    table = env.executor.table
+    instance = SchedulingInstance.from_scenario(scenario, table, env.settings.min_step)
+    task_ids = [t.id for t in scenario.tasks]
+
+    exact_plan: Optional[Plan] = None
+    if not args.no_exact or "exact" in args.methods:
+        started = time.monotonic()
+        exact_plan = exact_reference(instance, settings)
+        state = "proven optimal" if exact_plan.proven_optimal else "NOT proven (search limit)"
+        print(f"exact reference: {exact_plan.makespan:.2f} s, {state}, "
+              f"{exact_plan.details.get('expansions')} expansions, {time.monotonic() - started:.2f} s", file=sys.stderr)
+    exact_makespan = exact_plan.makespan if exact_plan is not None and exact_plan.proven_optimal else None
+
+    out = Path(args.out) if args.out else (package_root() / "results"
+                                           / f"evaluate_{scenario.name}_{'_'.join(args.methods)}.json")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    summaries, results = [], []
+    for method in args.methods:
+        plan = None
+        if method == "random":
+            policy = RandomPolicy(env.n_agents, env.n_tasks, settings.random_choice, seed=args.seed)
+        elif method == "policy":
+            policy = LearnedPolicy(args.policy, env.n_agents, env.obs_dim, env.n_actions, seed=args.seed)
+        else:
+            plan = exact_plan if method == "exact" else plan_for(method, instance, settings, args.seed)
+            policy = PlanPolicy(plan, env.n_agents, env.n_tasks)
+        progress = None if args.quiet else ProgressLine(f"{method} on {scenario.name}")
+        started = time.monotonic()
+        records = run_episodes(env, policy, args.episodes, args.seed, progress)
+        seconds = time.monotonic() - started
+        summary = summarize(method, records, exact_makespan)
+        summaries.append(summary)
+        gantt = out.with_name(f"{out.stem}_{method}_gantt.png")
+        plot_gantt(records[summary.representative], [t.category for t in scenario.tasks], gantt,
+                   title=f"{method} · {scenario.name}")
+        results.append({
+            "summary": summary.as_dict(), "seconds": seconds, "gantt": str(gantt),
+            "plan": plan_json(plan, task_ids) if plan is not None else None,
+            "representative_episode": records[summary.representative].to_dict(),
+            "episodes": [{"makespan": r.makespan, "decision_steps": r.decision_steps, "complete": r.complete,
+                          "logic_consistent": r.logic_consistent, "collisions": sum(r.collisions),
+                          "tasks_per_robot": r.tasks_per_robot()} for r in records],
+        })
+    print(format_table(summaries))
+    document = {
+        "scenario": str(scenario.source), "scenario_name": scenario.name, "executor": args.executor,
+        "profile": args.profile or "default", "mask": env.settings.mask, "episodes": args.episodes,
+        "seed": args.seed,
+        "exact": plan_json(exact_plan, task_ids) if exact_plan is not None else None,
+        "results": results,
+    }
+    out.write_text(json.dumps(document, indent=1, default=_json_default))
+    print(f"wrote {out} and {len(results)} Gantt chart(s)", file=sys.stderr)
+    return 0
+
+
+def _json_default(value: Any) -> Any:
+    if isinstance(value, float) and not math.isfinite(value):
+        return str(value)
+    if hasattr(value, "item"):
+        return value.item()
+    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    try:
+        return evaluate(parse_args(argv))
+    except (UsageError, ScenarioError, ConfigError, PolicyLoadError) as error:
+        print(f"evaluate: {error}", file=sys.stderr)
+        return 2

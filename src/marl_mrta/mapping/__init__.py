@@ -1,0 +1,1 @@
+"""Maps: digitising building geometry (SDF) into map_server maps, and reading those maps."""

@@ -1,0 +1,325 @@
+"""Occupancy maps in map_server's format (YAML + PGM), without ROS.
+
+``load_map(yaml_path)`` reads a map exactly as map_server does and returns an
+``OccupancyMap``; ``save_map(occupancy_map, yaml_path)`` writes one as map_saver does.
+
+Reading follows map_server (Noetic ``image_loader.cpp``):
+
+* YAML keys ``image`` (relative to the YAML file's folder), ``resolution`` (m/cell),
+  ``origin`` ``[x, y, yaw]`` (world pose of the lower-left corner of cell (0, 0)), ``negate``,
+  ``occupied_thresh``, ``free_thresh`` (all required) and ``mode`` (``trinary`` default,
+  ``scale``, ``raw``).
+* A pixel value ``p`` (0..255) gives ``occ = (255 - p) / 255``, with ``p`` replaced by
+  ``255 - p`` when ``negate`` is set; ``occ > occupied_thresh`` -> 100,
+  ``occ < free_thresh`` -> 0, otherwise -1 (``scale`` mode: ``1 + 98 * ratio`` in between;
+  ``raw`` mode: the pixel value itself, as a signed byte).
+* Grid row 0 is the BOTTOM row of the image, so ``grid[row, col]`` has y growing with row,
+  the layout of ``nav_msgs/OccupancyGrid.data`` (index ``row * width + col``).
+
+Example::
+
+    m = load_map("maps/lab.yaml")
+    cell = m.world_to_cell(1.75, 1.5)          # GridCell(col=45, row=40)
+    m.grid[cell.row, cell.col] == OCCUPIED     # a column of the lab
+    m.cell_to_world(cell.col, cell.row)        # WorldPoint(x=1.775, y=1.525), the cell centre
+    m.is_free(0.5, 0.5)                        # True: a start pose
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import NamedTuple, Optional, Union
+
+import numpy as np
+import yaml
+
+OCCUPIED = 100
+FREE = 0
+UNKNOWN = -1
+
+# map_saver's pixel values for the three trinary states.
+PIXEL_OCCUPIED = 0
+PIXEL_FREE = 254
+PIXEL_UNKNOWN = 205
+
+DEFAULT_OCCUPIED_THRESH = 0.65
+DEFAULT_FREE_THRESH = 0.196
+
+MAP_MODES = ("trinary", "scale", "raw")
+_REQUIRED_KEYS = ("image", "resolution", "origin", "negate", "occupied_thresh", "free_thresh")
+
+PathLike = Union[str, Path]
+
+
+class MapFileError(ValueError):
+    """A map file is missing or invalid. The message is one line: file, field, problem."""
+
+
+class GridCell(NamedTuple):
+    """Index of a map cell: column (along the map's x axis) and row (along its y axis)."""
+
+    col: int
+    row: int
+
+
+class WorldPoint(NamedTuple):
+    """A point in the map frame, in metres."""
+
+    x: float
+    y: float
+
+
+@dataclass(frozen=True)
+class MapOrigin:
+    """World pose of the lower-left corner of cell (0, 0): metres and radians."""
+
+    x: float
+    y: float
+    yaw: float = 0.0
+
+
+@dataclass
+class OccupancyMap:
+    """A map_server map. ``grid[row, col]`` is int8 OCCUPIED (100), FREE (0) or UNKNOWN (-1)
+    (other values only in ``scale``/``raw`` mode); row 0 is the lowest y."""
+
+    grid: np.ndarray
+    resolution: float
+    origin: MapOrigin
+
+    @property
+    def width(self) -> int:
+        """Number of columns (cells along x)."""
+        return int(self.grid.shape[1])
+
+    @property
+    def height(self) -> int:
+        """Number of rows (cells along y)."""
+        return int(self.grid.shape[0])
+
+    def contains_cell(self, col: int, row: int) -> bool:
+        """Whether (col, row) is a cell of the map."""
+        return 0 <= col < self.width and 0 <= row < self.height
+
+    def world_to_cell(self, x: float, y: float) -> Optional[GridCell]:
+        """The cell containing world point (x, y), or None outside the map.
+        A point on a cell border belongs to the cell above/right of it (floor)."""
+        dx, dy = x - self.origin.x, y - self.origin.y
+        cos_yaw, sin_yaw = math.cos(self.origin.yaw), math.sin(self.origin.yaw)
+        # Rotate into the map's own axes (map_server maps may carry an origin yaw).
+        map_x = cos_yaw * dx + sin_yaw * dy
+        map_y = -sin_yaw * dx + cos_yaw * dy
+        col = math.floor(map_x / self.resolution)
+        row = math.floor(map_y / self.resolution)
+        if not self.contains_cell(col, row):
+            return None
+        return GridCell(col, row)
+
+    def cell_to_world(self, col: int, row: int) -> WorldPoint:
+        """World coordinates of the centre of cell (col, row) (not checked against the bounds)."""
+        map_x = (col + 0.5) * self.resolution
+        map_y = (row + 0.5) * self.resolution
+        cos_yaw, sin_yaw = math.cos(self.origin.yaw), math.sin(self.origin.yaw)
+        return WorldPoint(self.origin.x + cos_yaw * map_x - sin_yaw * map_y,
+                          self.origin.y + sin_yaw * map_x + cos_yaw * map_y)
+
+    def value_at(self, x: float, y: float) -> int:
+        """Grid value at world point (x, y); UNKNOWN outside the map."""
+        cell = self.world_to_cell(x, y)
+        if cell is None:
+            return UNKNOWN
+        return int(self.grid[cell.row, cell.col])
+
+    def is_free(self, x: float, y: float) -> bool:
+        """Whether world point (x, y) lies in a FREE cell (False outside the map)."""
+        return self.value_at(x, y) == FREE
+
+
+# ---------------------------------------------------------------- reading
+
+
+def load_map(yaml_path: PathLike) -> OccupancyMap:
+    """Load a map_server map. Raises MapFileError (one line: file, field, problem)."""
+    yaml_path = Path(yaml_path)
+    config = _read_yaml(yaml_path)
+    missing = [key for key in _REQUIRED_KEYS if key not in config]
+    if missing:
+        raise MapFileError(f"{yaml_path}: {missing[0]}: missing")
+    unknown = sorted(set(config) - set(_REQUIRED_KEYS) - {"mode"})
+    if unknown:
+        raise MapFileError(f"{yaml_path}: {unknown[0]}: unknown key")
+
+    resolution = _number(yaml_path, config, "resolution")
+    if not resolution > 0.0:
+        raise MapFileError(f"{yaml_path}: resolution: must be positive, got {resolution}")
+    origin = _origin(yaml_path, config["origin"])
+    negate = _negate(yaml_path, config["negate"])
+    occupied_thresh = _number(yaml_path, config, "occupied_thresh")
+    free_thresh = _number(yaml_path, config, "free_thresh")
+    if not 0.0 <= free_thresh <= occupied_thresh <= 1.0:
+        raise MapFileError(f"{yaml_path}: free_thresh/occupied_thresh: need 0 <= free_thresh "
+                           f"<= occupied_thresh <= 1, got {free_thresh}/{occupied_thresh}")
+    mode = config.get("mode", "trinary")
+    if mode not in MAP_MODES:
+        raise MapFileError(f"{yaml_path}: mode: must be one of {', '.join(MAP_MODES)}, "
+                           f"got {mode!r}")
+    if not isinstance(config["image"], str) or not config["image"]:
+        raise MapFileError(f"{yaml_path}: image: must be a file name")
+
+    image_path = yaml_path.parent / config["image"]
+    pixels = read_pgm(image_path)
+    grid = pixels_to_grid(pixels, negate, occupied_thresh, free_thresh, mode)
+    return OccupancyMap(grid=grid, resolution=resolution, origin=origin)
+
+
+def pixels_to_grid(pixels: np.ndarray, negate: bool, occupied_thresh: float,
+                   free_thresh: float, mode: str = "trinary") -> np.ndarray:
+    """map_server's pixel -> occupancy rule. ``pixels`` is the image (row 0 = top), uint8;
+    returns the grid (row 0 = bottom), int8."""
+    values = pixels.astype(np.float64)
+    if negate:
+        values = 255.0 - values
+    if mode == "raw":
+        # map_server stores the byte as it is; nav_msgs data is signed.
+        return np.flipud(values.astype(np.uint8).view(np.int8)).copy()
+    occ = (255.0 - values) / 255.0
+    grid = np.full(pixels.shape, UNKNOWN, dtype=np.int8)
+    if mode == "scale":
+        ratio = (occ - free_thresh) / max(occupied_thresh - free_thresh, 1e-12)
+        grid = (1 + 98 * np.clip(ratio, 0.0, 1.0)).astype(np.int8)
+    grid[occ > occupied_thresh] = OCCUPIED
+    grid[occ < free_thresh] = FREE
+    return np.flipud(grid).copy()
+
+
+def read_pgm(path: PathLike) -> np.ndarray:
+    """Read a binary (P5) or plain (P2) 8-bit PGM; returns uint8 (rows, cols), row 0 = top."""
+    path = Path(path)
+    try:
+        data = path.read_bytes()
+    except OSError as err:
+        raise MapFileError(f"{path}: image: cannot read ({err.strerror})") from None
+    tokens, offset = _pgm_header(path, data)
+    magic, width, height, maxval = tokens
+    if maxval != 255:
+        raise MapFileError(f"{path}: PGM header: only 8-bit images (maxval 255), got {maxval}")
+    if magic == b"P5":
+        body = data[offset:offset + width * height]
+        if len(body) != width * height:
+            raise MapFileError(f"{path}: PGM data: expected {width * height} bytes, "
+                               f"got {len(body)}")
+        return np.frombuffer(body, dtype=np.uint8).reshape(height, width).copy()
+    try:
+        values = [int(token) for token in _strip_comments(data[offset:]).split()]
+    except ValueError:
+        raise MapFileError(f"{path}: PGM data: non-numeric pixel value") from None
+    if len(values) != width * height or not all(0 <= v <= 255 for v in values):
+        raise MapFileError(f"{path}: PGM data: expected {width * height} values in 0..255")
+    return np.array(values, dtype=np.uint8).reshape(height, width)
+
+
+def _pgm_header(path: Path, data: bytes):
+    """Parse 'P5 width height maxval' (comments allowed); return tokens and data offset."""
+    tokens = []
+    pos = 0
+    while len(tokens) < 4:
+        while pos < len(data) and data[pos:pos + 1].isspace():
+            pos += 1
+        if data[pos:pos + 1] == b"#":
+            while pos < len(data) and data[pos:pos + 1] not in (b"\n", b"\r"):
+                pos += 1
+            continue
+        start = pos
+        while pos < len(data) and not data[pos:pos + 1].isspace() and data[pos:pos + 1] != b"#":
+            pos += 1
+        if start == pos:
+            raise MapFileError(f"{path}: PGM header: truncated")
+        tokens.append(data[start:pos])
+        if tokens[0] not in (b"P5", b"P2"):
+            raise MapFileError(f"{path}: PGM header: not a PGM image (magic "
+                               f"{tokens[0][:8]!r}, expected P5 or P2)")
+    try:
+        width, height, maxval = (int(token) for token in tokens[1:])
+    except ValueError:
+        raise MapFileError(f"{path}: PGM header: non-numeric size or maxval") from None
+    if width <= 0 or height <= 0:
+        raise MapFileError(f"{path}: PGM header: empty image {width} x {height}")
+    # Exactly one whitespace byte separates the header from binary data.
+    return (tokens[0], width, height, maxval), pos + 1
+
+
+def _strip_comments(data: bytes) -> bytes:
+    return b"\n".join(line.split(b"#", 1)[0] for line in data.splitlines())
+
+
+def _read_yaml(yaml_path: Path) -> dict:
+    try:
+        text = yaml_path.read_text()
+    except OSError as err:
+        raise MapFileError(f"{yaml_path}: file: cannot read ({err.strerror})") from None
+    try:
+        config = yaml.safe_load(text)
+    except yaml.YAMLError as err:
+        mark = getattr(err, "problem_mark", None)
+        where = f" at line {mark.line + 1}" if mark is not None else ""
+        problem = getattr(err, "problem", None) or str(err).splitlines()[0]
+        raise MapFileError(f"{yaml_path}: YAML: {problem}{where}") from None
+    if not isinstance(config, dict):
+        raise MapFileError(f"{yaml_path}: YAML: expected a mapping of keys to values")
+    return config
+
+
+def _number(yaml_path: Path, config: dict, key: str) -> float:
+    value = config[key]
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise MapFileError(f"{yaml_path}: {key}: must be a number, got {value!r}")
+    return float(value)
+
+
+def _origin(yaml_path: Path, value) -> MapOrigin:
+    if (not isinstance(value, list) or len(value) != 3
+            or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                       and math.isfinite(v) for v in value)):
+        raise MapFileError(f"{yaml_path}: origin: must be [x, y, yaw] numbers, got {value!r}")
+    return MapOrigin(float(value[0]), float(value[1]), float(value[2]))
+
+
+def _negate(yaml_path: Path, value) -> bool:
+    if value in (0, 1) or isinstance(value, bool):
+        return bool(value)
+    raise MapFileError(f"{yaml_path}: negate: must be 0 or 1, got {value!r}")
+
+
+# ---------------------------------------------------------------- writing
+
+
+def grid_to_pixels(grid: np.ndarray) -> np.ndarray:
+    """map_saver's rule: OCCUPIED -> 0, FREE -> 254, UNKNOWN -> 205; image row 0 = top."""
+    if not np.isin(grid, (OCCUPIED, FREE, UNKNOWN)).all():
+        raise ValueError("only trinary grids (100, 0, -1) can be saved")
+    pixels = np.full(grid.shape, PIXEL_UNKNOWN, dtype=np.uint8)
+    pixels[grid == OCCUPIED] = PIXEL_OCCUPIED
+    pixels[grid == FREE] = PIXEL_FREE
+    return np.flipud(pixels)
+
+
+def save_map(occupancy_map: OccupancyMap, yaml_path: PathLike, comment: str = "") -> Path:
+    """Write ``<stem>.yaml`` and ``<stem>.pgm`` (P5, negate 0, thresholds 0.65/0.196) the way
+    map_saver does; ``comment`` lines head the YAML. Returns the image path."""
+    yaml_path = Path(yaml_path)
+    image_path = yaml_path.with_suffix(".pgm")
+    pixels = grid_to_pixels(occupancy_map.grid)
+    header = f"P5\n{occupancy_map.width} {occupancy_map.height}\n255\n".encode("ascii")
+    image_path.write_bytes(header + pixels.tobytes())
+    origin = occupancy_map.origin
+    lines = [f"# {line}" for line in comment.splitlines()] + [
+        f"image: {image_path.name}",
+        f"resolution: {occupancy_map.resolution:.6f}",
+        f"origin: [{origin.x:.6f}, {origin.y:.6f}, {origin.yaw:.6f}]",
+        "negate: 0",
+        f"occupied_thresh: {DEFAULT_OCCUPIED_THRESH}",
+        f"free_thresh: {DEFAULT_FREE_THRESH}",
+    ]
+    yaml_path.write_text("\n".join(lines) + "\n")
+    return image_path

@@ -1,0 +1,324 @@
+"""Scenario files (the paper's scheduler XML): robots, tasks, precedence, timing, reward overrides.
+
+The format is documented in docs/task_allocation.md ("Scenario files"). `load_scenario(path)`
+validates everything it reads and raises ScenarioError whose text is one line naming the file,
+the element and the problem; command-line tools print it and exit non-zero.
+"""
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Dict, List, Optional, Sequence, Tuple, Union
+
+from .mapping.occupancy_map import FREE, OCCUPIED, MapFileError, OccupancyMap, load_map
+from .tasks.config_reader import package_root
+from .tasks.reward import REWARD_SCHEMA, NavThresholds
+
+
+class ScenarioError(ValueError):
+    """An invalid scenario file; str(error) is one line: file, element, problem."""
+
+
+@dataclass(frozen=True)
+class Pose2D:
+    x: float
+    y: float
+    yaw: float   # rad, REP 103 (counter-clockwise from the map's x axis)
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    id: str          # also the robot's ROS namespace
+    start: Pose2D
+
+
+@dataclass(frozen=True)
+class TaskSpec:
+    id: str
+    category: str
+    goal: Pose2D
+    service_time: float   # s spent at the goal after arrival (pick/place), default 0
+
+
+@dataclass(frozen=True)
+class Scenario:
+    name: str
+    source: Path
+    map_path: Path
+    robots: Tuple[RobotSpec, ...]
+    tasks: Tuple[TaskSpec, ...]
+    predecessors: Tuple[Tuple[int, ...], ...]   # per task index: indices that must come first
+    nav_thresholds: NavThresholds
+    episode_timeout: float
+    reward_overrides: Dict[str, Dict[str, float]] = field(default_factory=dict)
+
+    @property
+    def n_robots(self) -> int:
+        return len(self.robots)
+
+    @property
+    def n_tasks(self) -> int:
+        return len(self.tasks)
+
+    @property
+    def categories(self) -> Tuple[str, ...]:
+        """Task categories in sorted order (the observation's one-hot order)."""
+        return tuple(sorted({task.category for task in self.tasks}))
+
+    def task_index(self, task_id: str) -> int:
+        for index, task in enumerate(self.tasks):
+            if task.id == task_id:
+                return index
+        raise KeyError(task_id)
+
+    def load_map(self) -> OccupancyMap:
+        return load_map(self.map_path)
+
+
+_ROOT_CHILDREN = ("map", "robots", "tasks", "precedence", "episode", "nav_time", "reward")
+
+
+def resolve_resource(reference: str, relative_to: Path) -> Path:
+    """A file reference of a scenario: package://<pkg>/<path>, absolute, or relative to the
+    scenario's folder."""
+    prefix = "package://"
+    if reference.startswith(prefix):
+        package, _, rest = reference[len(prefix):].partition("/")
+        if package == "marl_mrta":
+            return package_root() / rest
+        import rospkg  # other packages: only ROS knows where they are
+        return Path(rospkg.RosPack().get_path(package)) / rest
+    path = Path(reference)
+    return path if path.is_absolute() else relative_to / path
+
+
+class _Reader:
+    """Validating reader of one scenario file; every problem becomes a one-line ScenarioError."""
+
+    def __init__(self, path: Path):
+        self.path = path
+
+    def fail(self, element: Optional[ET.Element], problem: str) -> ScenarioError:
+        where = _describe(element) if element is not None else "file"
+        return ScenarioError(f"{self.path}: {where}: {problem}")
+
+    def attributes(self, element: ET.Element, required: Sequence[str], optional: Sequence[str] = ()) -> None:
+        for name in element.attrib:
+            if name not in required and name not in optional:
+                raise self.fail(element, f"unknown attribute '{name}'")
+        for name in required:
+            if name not in element.attrib:
+                raise self.fail(element, f"missing attribute '{name}'")
+
+    def text(self, element: ET.Element, name: str) -> str:
+        value = element.attrib[name].strip()
+        if not value:
+            raise self.fail(element, f"attribute '{name}' is empty")
+        return value
+
+    def number(self, element: ET.Element, name: str, default: Optional[float] = None) -> float:
+        if name not in element.attrib and default is not None:
+            return default
+        raw = element.attrib[name]
+        try:
+            value = float(raw)
+        except ValueError:
+            raise self.fail(element, f"attribute '{name}' is not a number: {raw!r}") from None
+        if not math.isfinite(value):
+            raise self.fail(element, f"attribute '{name}' is not finite: {raw!r}")
+        return value
+
+    def single(self, root: ET.Element, tag: str, required: bool = True) -> Optional[ET.Element]:
+        found = root.findall(tag)
+        if len(found) > 1:
+            raise self.fail(found[1], f"<{tag}> given more than once")
+        if not found:
+            if required:
+                raise self.fail(root, f"missing element <{tag}>")
+            return None
+        return found[0]
+
+    def children(self, parent: ET.Element, tag: str) -> List[ET.Element]:
+        for child in parent:
+            if child.tag != tag:
+                raise self.fail(child, f"unexpected element inside <{parent.tag}> (expected <{tag}>)")
+        return list(parent)
+
+    def pose(self, element: ET.Element) -> Pose2D:
+        return Pose2D(self.number(element, "x"), self.number(element, "y"), self.number(element, "yaw"))
+
+    def check_on_free_cell(self, element: ET.Element, grid_map: OccupancyMap, pose: Pose2D, what: str) -> None:
+        cell = grid_map.world_to_cell(pose.x, pose.y)
+        if cell is None:
+            raise self.fail(element, f"{what} ({pose.x:g}, {pose.y:g}) is off the map")
+        value = int(grid_map.grid[cell.row, cell.col])
+        if value == OCCUPIED:
+            raise self.fail(element, f"{what} ({pose.x:g}, {pose.y:g}) is inside an obstacle")
+        if value != FREE:
+            raise self.fail(element, f"{what} ({pose.x:g}, {pose.y:g}) is on an unknown (not free) cell")
+
+
+def _describe(element: ET.Element) -> str:
+    key = element.attrib.get("id")
+    if key is None and element.tag == "edge":
+        return f"<edge before=\"{element.attrib.get('before', '')}\" after=\"{element.attrib.get('after', '')}\">"
+    return f"<{element.tag} id=\"{key}\">" if key is not None else f"<{element.tag}>"
+
+
+def load_scenario(path: Union[str, Path]) -> Scenario:
+    """Read and validate a scenario file."""
+    path = Path(path)
+    reader = _Reader(path)
+    try:
+        root = ET.parse(str(path)).getroot()
+    except OSError as error:
+        raise ScenarioError(f"{path}: file: cannot read ({error.strerror})") from None
+    except ET.ParseError as error:
+        raise ScenarioError(f"{path}: file: not well-formed XML ({error})") from None
+    if root.tag != "scenario":
+        raise reader.fail(root, "the root element must be <scenario>")
+    reader.attributes(root, ("name",))
+    name = reader.text(root, "name")
+    for child in root:
+        if child.tag not in _ROOT_CHILDREN:
+            raise reader.fail(child, f"unknown element (expected one of {', '.join(_ROOT_CHILDREN)})")
+
+    map_element = reader.single(root, "map")
+    reader.attributes(map_element, ("file",))
+    map_path = resolve_resource(reader.text(map_element, "file"), path.parent)
+    try:
+        grid_map = load_map(map_path)
+    except MapFileError as error:
+        raise reader.fail(map_element, f"cannot load the map: {error}") from None
+
+    robots = _read_robots(reader, reader.single(root, "robots"), grid_map)
+    tasks = _read_tasks(reader, reader.single(root, "tasks"), grid_map)
+    predecessors = _read_precedence(reader, reader.single(root, "precedence", required=False), tasks)
+
+    episode = reader.single(root, "episode")
+    reader.attributes(episode, ("timeout",))
+    timeout = reader.number(episode, "timeout")
+    if timeout <= 0.0:
+        raise reader.fail(episode, f"timeout must be positive, got {timeout:g}")
+
+    nav_element = reader.single(root, "nav_time")
+    reader.attributes(nav_element, ("t_min", "t_avg", "t_max"))
+    thresholds = NavThresholds(reader.number(nav_element, "t_min"), reader.number(nav_element, "t_avg"),
+                               reader.number(nav_element, "t_max"))
+    if not 0.0 <= thresholds.t_min < thresholds.t_max or thresholds.t_avg <= 0.0:
+        raise reader.fail(nav_element, "need 0 <= t_min < t_max and t_avg > 0")
+
+    overrides = _read_reward_overrides(reader, reader.single(root, "reward", required=False))
+    return Scenario(name=name, source=path, map_path=map_path, robots=robots, tasks=tasks,
+                    predecessors=predecessors, nav_thresholds=thresholds, episode_timeout=timeout,
+                    reward_overrides=overrides)
+
+
+def _read_robots(reader: _Reader, parent: ET.Element, grid_map: OccupancyMap) -> Tuple[RobotSpec, ...]:
+    robots: List[RobotSpec] = []
+    seen = set()
+    for element in reader.children(parent, "robot"):
+        reader.attributes(element, ("id", "x", "y", "yaw"))
+        robot_id = reader.text(element, "id")
+        if robot_id in seen:
+            raise reader.fail(element, "duplicate robot id")
+        seen.add(robot_id)
+        start = reader.pose(element)
+        reader.check_on_free_cell(element, grid_map, start, "start pose")
+        robots.append(RobotSpec(robot_id, start))
+    if not robots:
+        raise reader.fail(parent, "no <robot> given")
+    return tuple(robots)
+
+
+def _read_tasks(reader: _Reader, parent: ET.Element, grid_map: OccupancyMap) -> Tuple[TaskSpec, ...]:
+    tasks: List[TaskSpec] = []
+    seen = set()
+    for element in reader.children(parent, "task"):
+        reader.attributes(element, ("id", "category", "x", "y", "yaw"), ("service_time",))
+        task_id = reader.text(element, "id")
+        if task_id in seen:
+            raise reader.fail(element, "duplicate task id")
+        seen.add(task_id)
+        goal = reader.pose(element)
+        reader.check_on_free_cell(element, grid_map, goal, "goal")
+        service = reader.number(element, "service_time", default=0.0)
+        if service < 0.0:
+            raise reader.fail(element, f"service_time must not be negative, got {service:g}")
+        tasks.append(TaskSpec(task_id, reader.text(element, "category"), goal, service))
+    if not tasks:
+        raise reader.fail(parent, "no <task> given")
+    return tuple(tasks)
+
+
+def _read_precedence(reader: _Reader, parent: Optional[ET.Element],
+                     tasks: Sequence[TaskSpec]) -> Tuple[Tuple[int, ...], ...]:
+    index = {task.id: i for i, task in enumerate(tasks)}
+    preds: List[List[int]] = [[] for _ in tasks]
+    if parent is None:
+        return tuple(tuple(p) for p in preds)
+    reader.attributes(parent, ())
+    for element in reader.children(parent, "edge"):
+        reader.attributes(element, ("before", "after"))
+        ends = []
+        for name in ("before", "after"):
+            task_id = reader.text(element, name)
+            if task_id not in index:
+                raise reader.fail(element, f"unknown task '{task_id}'")
+            ends.append(index[task_id])
+        before, after = ends
+        if before == after:
+            raise reader.fail(element, "a task cannot precede itself")
+        if before in preds[after]:
+            raise reader.fail(element, "duplicate edge")
+        preds[after].append(before)
+    cycle = _find_cycle(preds)
+    if cycle:
+        path = " -> ".join(tasks[i].id for i in cycle)
+        raise reader.fail(parent, f"precedence has a cycle: {path}")
+    return tuple(tuple(p) for p in preds)
+
+
+def _find_cycle(preds: Sequence[Sequence[int]]) -> List[int]:
+    """A cycle of the precedence graph as a list of task indices (first == last), or []."""
+    state = [0] * len(preds)   # 0 unvisited, 1 on the stack, 2 done
+    stack: List[int] = []
+
+    def visit(node: int) -> List[int]:
+        state[node] = 1
+        stack.append(node)
+        for pred in preds[node]:
+            if state[pred] == 1:
+                cycle = stack[stack.index(pred):] + [pred]
+                return list(reversed(cycle))
+            if state[pred] == 0:
+                found = visit(pred)
+                if found:
+                    return found
+        stack.pop()
+        state[node] = 2
+        return []
+
+    for node in range(len(preds)):
+        if state[node] == 0:
+            found = visit(node)
+            if found:
+                return found
+    return []
+
+
+def _read_reward_overrides(reader: _Reader, parent: Optional[ET.Element]) -> Dict[str, Dict[str, float]]:
+    overrides: Dict[str, Dict[str, float]] = {}
+    if parent is None:
+        return overrides
+    reader.attributes(parent, ())
+    for element in parent:
+        if element.tag not in REWARD_SCHEMA:
+            raise reader.fail(element, f"unknown reward section (expected one of {', '.join(REWARD_SCHEMA)})")
+        if element.tag in overrides:
+            raise reader.fail(element, "given more than once")
+        reader.attributes(element, (), REWARD_SCHEMA[element.tag])
+        overrides[element.tag] = {name: reader.number(element, name) for name in element.attrib}
+    return overrides

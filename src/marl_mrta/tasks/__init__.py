@@ -1,0 +1,1 @@
+"""Task logic of the decision process: rules of a step, reward, schedule record, travel times."""

@@ -1,0 +1,157 @@
+"""The reward of SPEC "Reward", one implementation for every executor.
+
+    R_i = w_logic·r_logic + w_time·r_nav + w_col·r_col + w_idle·r_idle
+
+Every value comes from config/reward.yaml, optionally overridden per scenario (the scenario's
+<reward> element); the r_nav thresholds t_min, t_avg, t_max come from the scenario.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Dict, List, Mapping, Optional, Sequence, Tuple, Union
+
+from .config_reader import ConfigError, ConfigSection, default_config_path, read_yaml
+
+#: The keys of config/reward.yaml (section -> keys); scenario overrides use the same names.
+REWARD_SCHEMA: Dict[str, Tuple[str, ...]] = {
+    "weights": ("logic", "time", "idle", "collision"),
+    "logic": ("correct_finished", "correct_unfinished", "wrong_finished", "wrong_unfinished", "no_task"),
+    "nav": ("best", "slope", "at_or_below_min", "at_or_over_max", "no_task"),
+    "collision": ("per_event",),
+    "idle": ("per_second",),
+}
+
+
+@dataclass(frozen=True)
+class NavThresholds:
+    """The r_nav time thresholds of a scenario, seconds."""
+
+    t_min: float
+    t_avg: float
+    t_max: float
+
+
+@dataclass(frozen=True)
+class RewardConfig:
+    w_logic: float
+    w_time: float
+    w_idle: float
+    w_col: float
+    logic_correct_finished: float      # right order, this robot finished the task
+    logic_correct_unfinished: float    # right order, not finished by this robot
+    logic_wrong_finished: float        # predecessor missing, finished anyway
+    logic_wrong_unfinished: float      # predecessor missing, not finished
+    logic_no_task: float               # action None
+    nav_best: float                    # r_nav = best − slope·(t − t_min)/t_avg inside (t_min, t_max)
+    nav_slope: float
+    nav_at_or_below_min: float         # r_nav at t <= t_min (a trip to where the robot already is)
+    nav_at_or_over_max: float          # r_nav at t >= t_max
+    nav_no_task: float                 # action None: no navigation to score
+    col_per_event: float
+    idle_per_second: float
+    thresholds: NavThresholds
+
+    @staticmethod
+    def load(thresholds: NavThresholds, path: Optional[Union[str, Path]] = None,
+             overrides: Optional[Mapping[str, Mapping[str, float]]] = None) -> "RewardConfig":
+        """config/reward.yaml (or `path`) with a scenario's overrides applied on top."""
+        root = read_yaml(path if path is not None else default_config_path("reward.yaml"))
+        for section, values in (overrides or {}).items():
+            if section not in REWARD_SCHEMA:
+                raise ConfigError(f"reward override: unknown section {section!r}")
+            target = root.data.setdefault(section, {})
+            for key, value in values.items():
+                if key not in REWARD_SCHEMA[section]:
+                    raise ConfigError(f"reward override: {section}.{key}: unknown key")
+                target[key] = value
+        config = _from_section(root, thresholds)
+        root.check_all_used()
+        return config
+
+
+def _from_section(root: ConfigSection, thresholds: NavThresholds) -> "RewardConfig":
+    weights, logic, nav = root.section("weights"), root.section("logic"), root.section("nav")
+    collision, idle = root.section("collision"), root.section("idle")
+    return RewardConfig(
+        w_logic=weights.number("logic"), w_time=weights.number("time"),
+        w_idle=weights.number("idle"), w_col=weights.number("collision"),
+        logic_correct_finished=logic.number("correct_finished"),
+        logic_correct_unfinished=logic.number("correct_unfinished"),
+        logic_wrong_finished=logic.number("wrong_finished"),
+        logic_wrong_unfinished=logic.number("wrong_unfinished"),
+        logic_no_task=logic.number("no_task"),
+        nav_best=nav.number("best"), nav_slope=nav.number("slope"),
+        nav_at_or_below_min=nav.number("at_or_below_min"),
+        nav_at_or_over_max=nav.number("at_or_over_max"), nav_no_task=nav.number("no_task"),
+        col_per_event=collision.number("per_event"),
+        idle_per_second=idle.number("per_second"),
+        thresholds=thresholds,
+    )
+
+
+def logic_reward(config: RewardConfig, has_task: bool, correct_order: bool, finished: bool) -> float:
+    """r_logic: the four cases of SPEC for a task action, `no_task` for None."""
+    if not has_task:
+        return config.logic_no_task
+    if correct_order:
+        return config.logic_correct_finished if finished else config.logic_correct_unfinished
+    return config.logic_wrong_finished if finished else config.logic_wrong_unfinished
+
+
+def nav_reward(config: RewardConfig, has_task: bool, nav_time: float) -> float:
+    """r_nav on the time the robot navigated this step (reached or not).
+
+    SPEC gives 2 − 2·(t − t_min)/t_avg inside (t_min, t_max) and −8 from t_max on. It gives
+    nothing at or below t_min, which no trip between two places of the scenario takes (t_min is
+    its shortest leg): only a "trip" to where the robot already stands is that short, and
+    rewarding it would pay for standing still in many tiny steps. Default there: 0.
+    """
+    if not has_task:
+        return config.nav_no_task
+    th = config.thresholds
+    if nav_time >= th.t_max:
+        return config.nav_at_or_over_max
+    if nav_time <= th.t_min:
+        return config.nav_at_or_below_min
+    return config.nav_best - config.nav_slope * (nav_time - th.t_min) / th.t_avg
+
+
+def collision_reward(config: RewardConfig, events: int) -> float:
+    """r_col: a fixed value per collision event of this robot in the step."""
+    return config.col_per_event * events
+
+
+def idle_reward(config: RewardConfig, idle_time: float) -> float:
+    """r_idle: proportional to the time the robot waited for the step to end."""
+    return config.idle_per_second * idle_time
+
+
+@dataclass
+class RewardBreakdown:
+    """Per-robot unweighted components (names as env.api.REWARD_COMPONENTS) and weighted totals."""
+
+    logic: List[float]
+    nav: List[float]
+    collision: List[float]
+    idle: List[float]
+    total: List[float]
+
+
+def step_rewards(config: RewardConfig, has_task: Sequence[bool], correct_order: Sequence[bool],
+                 finished: Sequence[bool], nav_time: Sequence[float], collisions: Sequence[int],
+                 idle_time: Sequence[float]) -> RewardBreakdown:
+    """Rewards of every robot for one decision step."""
+    out = RewardBreakdown([], [], [], [], [])
+    for i in range(len(has_task)):
+        r_logic = logic_reward(config, has_task[i], correct_order[i], finished[i])
+        r_nav = nav_reward(config, has_task[i], nav_time[i])
+        r_col = collision_reward(config, collisions[i])
+        r_idle = idle_reward(config, idle_time[i])
+        out.logic.append(r_logic)
+        out.nav.append(r_nav)
+        out.collision.append(r_col)
+        out.idle.append(r_idle)
+        out.total.append(config.w_logic * r_logic + config.w_time * r_nav
+                         + config.w_col * r_col + config.w_idle * r_idle)
+    return out

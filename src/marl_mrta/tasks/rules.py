@@ -1,0 +1,100 @@
+"""The task rules of one decision step (Algorithm 1), shared by the environment and the planners.
+
+Given what each robot was told to do and what its navigation did (arrival or not, after how
+long), decide who finished which task, whether each attempt respected the precedence, how long
+the step lasted and how long each robot waited. Times are relative to the start of the step.
+
+Rules (docs/task_allocation.md, "Step rules"):
+- A task is finished by the first robot to arrive at its goal (ties: lower robot index), if it
+  was not finished before and its service time ends within the episode's time limit. Another
+  robot arriving there later finishes nothing (wasted trip, never a double finish).
+- An attempt is in correct order if every predecessor of the task was finished strictly before
+  the robot arrived (or, for an attempt that did not arrive, before the attempt ended).
+- The step lasts until the last robot with a goal has arrived (plus its service time) or
+  failed, and at least `min_step` seconds (the whole step when every robot chose None, or
+  when a robot was sent to where it already stands). Never beyond the time limit.
+- Idle time of a robot = step duration − its busy time (navigation + service); a robot with
+  action None is idle for the whole step.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import List, Optional, Sequence
+
+
+@dataclass
+class FinishedTask:
+    task: int
+    robot: int
+    reach_time: float        # arrival, relative to the step start
+    finish_time: float       # arrival + service time, relative to the step start
+
+
+@dataclass
+class StepResolution:
+    """The outcome of one step. Per-robot lists are indexed by robot."""
+
+    tasks: List[Optional[int]]       # task index, None for the None action
+    reached: List[bool]              # arrived at the task's goal within the step
+    robot_finished: List[bool]       # this robot finished its task
+    correct_order: List[bool]        # predecessors finished strictly before arrival (True for None)
+    nav_time: List[float]            # s navigated (to arrival, failure or time limit)
+    busy_time: List[float]           # nav_time + service time if this robot finished the task
+    idle_time: List[float]           # duration − busy_time
+    collisions: List[int]            # collision events of each robot in the step
+    duration: float                  # s
+    finished: List[FinishedTask]     # tasks finished in this step, in order of their finish time
+
+
+def resolve_step(goals: Sequence[Optional[int]], nav_times: Sequence[float], reached: Sequence[bool],
+                 collisions: Sequence[int], finished_before: Sequence[bool],
+                 predecessors: Sequence[Sequence[int]], service_times: Sequence[float],
+                 time_limit: float, min_step: float) -> StepResolution:
+    """Apply the step rules to one joint action and its navigation outcome."""
+    n_robots = len(goals)
+    # First arrival at each task that is still open.
+    first_robot = {}
+    for robot in range(n_robots):
+        task = goals[robot]
+        if task is None or not reached[robot] or finished_before[task]:
+            continue
+        best = first_robot.get(task)
+        if best is None or nav_times[robot] < nav_times[best]:
+            first_robot[task] = robot
+    finish_rel = {}
+    finished: List[FinishedTask] = []
+    for task, robot in first_robot.items():
+        end = nav_times[robot] + service_times[task]
+        if end <= time_limit:
+            finish_rel[task] = end
+            finished.append(FinishedTask(task, robot, nav_times[robot], end))
+    if len(finished) > 1:
+        finished.sort(key=lambda f: (f.finish_time, f.robot))
+
+    robot_finished = [False] * n_robots
+    correct_order = [True] * n_robots
+    nav = [0.0] * n_robots
+    busy = [0.0] * n_robots
+    duration = 0.0
+    for robot in range(n_robots):
+        task = goals[robot]
+        if task is None:
+            continue
+        t = nav[robot] = nav_times[robot]
+        for pred in predecessors[task]:
+            if finished_before[pred]:
+                continue
+            done_at = finish_rel.get(pred)
+            if done_at is None or not done_at < t:
+                correct_order[robot] = False
+                break
+        if task in finish_rel and first_robot[task] == robot:
+            robot_finished[robot] = True
+            t += service_times[task]
+        busy[robot] = t
+        if t > duration:
+            duration = t
+    duration = min(max(duration, min_step), time_limit)
+    idle = [duration - b if duration > b else 0.0 for b in busy]
+    return StepResolution(list(goals), [bool(r) and g is not None for r, g in zip(reached, goals)], robot_finished,
+                          correct_order, nav, busy, idle, list(collisions), duration, finished)

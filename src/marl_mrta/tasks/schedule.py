@@ -1,0 +1,74 @@
+"""The schedule record of an episode (SPEC "Metrics", paper Table 6) and its summary figures.
+
+Every method (learned policy or baseline) is scored from this record, produced by the
+environment while the episode runs, so the same rules score them all.
+"""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+from typing import Any, Dict, List, Optional
+
+
+@dataclass
+class ScheduleEntry:
+    """One robot's attempt at one task in one decision step."""
+
+    robot: int
+    task: int
+    step: int
+    start: float               # s since episode start: the step's start
+    reach: Optional[float]     # s since episode start: arrival at the goal, None if it did not arrive
+    end: float                 # s since episode start: arrival, failure or time limit
+    finished: bool             # this attempt finished the task
+    order: Optional[int]       # 1-based position in the global finishing order (finished attempts)
+    logic_correct: bool        # every predecessor finished strictly before this arrival
+    service_end: Optional[float] = None   # s since episode start: end of the service time (finished)
+
+
+@dataclass
+class EpisodeRecord:
+    scenario: str
+    robot_ids: List[str]
+    task_ids: List[str]
+    makespan: float = 0.0                # s: episode time when it ended
+    complete: bool = False               # every task finished
+    truncated: bool = False              # ended by the timeout or an abort
+    abort_reason: str = ""
+    step_durations: List[float] = field(default_factory=list)
+    joint_actions: List[List[Optional[int]]] = field(default_factory=list)   # per step: task index or None per robot
+    entries: List[ScheduleEntry] = field(default_factory=list)
+    finish_time: List[Optional[float]] = field(default_factory=list)     # per task
+    finished_by: List[Optional[int]] = field(default_factory=list)       # per task: robot index
+    task_logic_correct: List[Optional[bool]] = field(default_factory=list)  # per task, of its finishing attempt
+    nav_time: List[float] = field(default_factory=list)                  # per robot, total
+    idle_time: List[float] = field(default_factory=list)                 # per robot, total
+    collisions: List[int] = field(default_factory=list)                  # per robot, total
+
+    @property
+    def decision_steps(self) -> int:
+        return len(self.step_durations)
+
+    @property
+    def logic_consistent(self) -> bool:
+        """Every task finished, each in correct order."""
+        return self.complete and all(bool(flag) for flag in self.task_logic_correct)
+
+    def robot_task_lists(self) -> List[List[int]]:
+        """Per robot, the tasks it finished, in order."""
+        lists: List[List[int]] = [[] for _ in self.robot_ids]
+        for entry in self.entries:
+            if entry.finished:
+                lists[entry.robot].append(entry.task)
+        return lists
+
+    def tasks_per_robot(self) -> List[int]:
+        return [len(tasks) for tasks in self.robot_task_lists()]
+
+    def to_dict(self) -> Dict[str, Any]:
+        data = asdict(self)
+        data["decision_steps"] = self.decision_steps
+        data["logic_consistent"] = self.logic_consistent
+        data["robot_task_lists"] = [[self.task_ids[t] for t in tasks] for tasks in self.robot_task_lists()]
+        data["joint_actions"] = [[None if a is None else self.task_ids[a] for a in step]
+                                 for step in self.joint_actions]
+        return data

@@ -1,0 +1,174 @@
+"""Baselines: the exact solver equals brute-force enumeration (through tasks/rules.py) on random
+small instances; its batched rules equal the scalar rules; plans replay in the environment to
+their predicted makespan; the GA reaches the optimum on lab_2r; auction and random behave."""
+import itertools
+import math
+import random
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from marl_mrta.baselines.auction import solve_auction
+from marl_mrta.baselines.exact import BatchedRules, solve_exact
+from marl_mrta.baselines.ga import solve_ga
+from marl_mrta.baselines.plan import SchedulingInstance, decode_task_lists
+from marl_mrta.baselines.random_policy import RandomPolicy
+from marl_mrta.baselines.settings import load_baseline_settings
+from marl_mrta.env.factory import make_env
+from marl_mrta.evaluation.policies import PlanPolicy
+from marl_mrta.evaluation.runner import run_episodes
+from marl_mrta.tasks.rules import resolve_step
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def random_instance(rng: random.Random, n_robots: int, n_tasks: int, whole_seconds: bool = False) -> SchedulingInstance:
+    """Random asymmetric travel times (whole seconds make same-time arrivals, i.e. ties, common),
+    a random precedence DAG and random service times."""
+    n = n_robots + n_tasks
+
+    def leg() -> float:
+        return float(rng.randint(1, 5)) if whole_seconds else rng.uniform(1.0, 10.0)
+    travel = np.array([[0.1 if a == b else leg() for b in range(n)] for a in range(n)])
+    order = list(range(n_tasks))
+    rng.shuffle(order)
+    preds = [[] for _ in range(n_tasks)]
+    for i, j in itertools.combinations(range(n_tasks), 2):
+        if rng.random() < 0.4:
+            preds[order[j]].append(order[i])
+    service = tuple(rng.choice((0.0, 0.0, 1.0, 2.0) if whole_seconds else (0.0, 0.0, 0.5, 2.0)) for _ in range(n_tasks))
+    return SchedulingInstance(n_robots, n_tasks, travel, service, tuple(tuple(p) for p in preds), 1.0)
+
+
+def scalar_step(inst, finished, positions, goals):
+    nav = [0.0 if g is None else inst.travel_rows[positions[r]][inst.n_robots + g] for r, g in enumerate(goals)]
+    return resolve_step(goals, nav, [g is not None for g in goals], [0] * len(goals), finished,
+                        inst.predecessors, inst.service, math.inf, inst.min_step)
+
+
+def brute_force_makespan(inst: SchedulingInstance) -> float:
+    """Every sequence of joint actions (all-None left out: it changes nothing but the clock),
+    stepped through tasks/rules.py; a sequence is dropped when it finishes a task out of order;
+    a path is cut when it reaches a state already reached at least as early, or costs more
+    than the best complete sequence so far."""
+    joint = [list(a) for a in itertools.product(list(range(inst.n_tasks)) + [None], repeat=inst.n_robots)
+             if any(g is not None for g in a)]
+    best = [math.inf]
+    seen = {}
+
+    def search(finished, positions, elapsed):
+        if elapsed >= best[0] - 1e-9:
+            return
+        if all(finished):
+            best[0] = elapsed
+            return
+        key = (tuple(finished), tuple(positions))
+        if seen.get(key, math.inf) <= elapsed + 1e-12:
+            return
+        seen[key] = elapsed
+        for goals in joint:
+            step = scalar_step(inst, finished, positions, goals)
+            if not all(step.correct_order[f.robot] for f in step.finished):
+                continue
+            new_finished = list(finished)
+            for f in step.finished:
+                new_finished[f.task] = True
+            new_positions = [p if g is None else inst.n_robots + g for p, g in zip(positions, goals)]
+            search(new_finished, new_positions, elapsed + step.duration)
+
+    search([False] * inst.n_tasks, list(range(inst.n_robots)), 0.0)
+    return best[0]
+
+
+SHAPES = [(2, 2), (2, 3), (3, 2), (2, 4), (3, 3)]
+
+
+@pytest.mark.parametrize("case", range(25))
+def test_exact_equals_brute_force_on_random_instances(case):
+    rng = random.Random(1000 + case)
+    n_robots, n_tasks = SHAPES[case % len(SHAPES)]
+    inst = random_instance(rng, n_robots, n_tasks, whole_seconds=case % 2 == 1)
+    plan = solve_exact(inst)
+    assert plan.proven_optimal
+    assert plan.makespan == pytest.approx(brute_force_makespan(inst), abs=1e-9)
+    assert plan.logic_violations == 0 and sum(len(t) for t in plan.robot_tasks) == n_tasks
+
+
+def test_batched_rules_equal_the_scalar_rules():
+    rng = random.Random(7)
+    for trial in range(20):
+        inst = random_instance(rng, rng.choice((2, 3)), rng.choice((3, 4)), whole_seconds=trial % 2 == 1)
+        rules = BatchedRules(inst)
+        done = np.array([rng.random() < 0.3 for _ in range(inst.n_tasks)])
+        pos = np.array([rng.choice([r] + [inst.n_robots + j for j in range(inst.n_tasks) if done[j]])
+                        for r in range(inst.n_robots)])
+        valid, duration, new_done, new_pos = rules.evaluate(done, pos)
+        for b, action in enumerate(rules.actions):
+            goals = [int(a) if a < inst.n_tasks else None for a in action]
+            step = scalar_step(inst, done.tolist(), pos.tolist(), goals)
+            assert valid[b] == all(step.correct_order[f.robot] for f in step.finished)
+            assert duration[b] == pytest.approx(step.duration)
+            expected_done = done.copy()
+            expected_done[[f.task for f in step.finished]] = True
+            assert new_done[b].tolist() == expected_done.tolist()
+            assert new_pos[b].tolist() == [p if g is None else inst.n_robots + g for p, g in zip(pos.tolist(), goals)]
+
+
+@pytest.fixture(scope="module")
+def lab_2r():
+    env = make_env(ROOT / "scenarios" / "lab_2r.xml", seed=0)
+    return env, SchedulingInstance.from_scenario(env.scenario, env.executor.table, env.settings.min_step)
+
+
+def test_exact_plan_replays_in_the_environment_to_its_makespan(lab_2r):
+    env, inst = lab_2r
+    plan = solve_exact(inst)
+    assert plan.proven_optimal
+    record = run_episodes(env, PlanPolicy(plan, env.n_agents, env.n_tasks), 1, 0)[0]
+    assert record.complete and record.logic_consistent
+    assert record.makespan == pytest.approx(plan.makespan)
+    assert record.robot_task_lists() == plan.robot_tasks
+
+
+def test_ga_reaches_the_exact_optimum_on_lab_2r_in_9_of_10_seeds(lab_2r):
+    env, inst = lab_2r
+    optimum = solve_exact(inst).makespan
+    settings = load_baseline_settings().ga
+    hits = sum(abs(solve_ga(inst, settings, seed=seed).makespan - optimum) < 1e-6 for seed in range(10))
+    assert hits >= 9
+
+
+def test_ga_is_deterministic_per_seed(lab_2r):
+    _, inst = lab_2r
+    a, b = solve_ga(inst, seed=3), solve_ga(inst, seed=3)
+    assert a.joint_actions == b.joint_actions and a.makespan == b.makespan
+
+
+def test_auction_gives_a_complete_consistent_plan_no_better_than_exact(lab_2r):
+    env, inst = lab_2r
+    plan = solve_auction(inst)
+    assert plan.logic_violations == 0
+    assert sorted(t for tasks in plan.robot_tasks for t in tasks) == list(range(inst.n_tasks))
+    assert plan.makespan >= solve_exact(inst).makespan - 1e-9
+    record = run_episodes(env, PlanPolicy(plan, env.n_agents, env.n_tasks), 1, 0)[0]
+    assert record.makespan == pytest.approx(plan.makespan) and record.logic_consistent
+
+
+def test_decoder_waits_instead_of_breaking_the_order(lab_2r):
+    _, inst = lab_2r
+    b1, a1 = inst.task_ids.index("B1"), inst.task_ids.index("A1")
+    rest = [j for j in range(inst.n_tasks) if j not in (a1, b1)]
+    # Robot 1 is told to do B1 first, but A1 is robot 0's second task: robot 1 must wait.
+    run = decode_task_lists(inst, [[rest[0], a1] + rest[1:4], [b1] + rest[4:]])
+    assert run.violations == 0 and run.joint_actions[0][1] is None
+
+
+def test_random_baseline_picks_only_open_tasks(lab_2r):
+    env, _ = lab_2r
+    records = run_episodes(env, RandomPolicy(env.n_agents, env.n_tasks, "unfinished", seed=0), 20, 0)
+    for record in records:
+        done_before = set()
+        for step, actions in enumerate(record.joint_actions):
+            assert all(a is not None and a not in done_before for a in actions)
+            done_before |= {e.task for e in record.entries if e.step == step and e.finished}

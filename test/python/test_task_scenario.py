@@ -1,0 +1,100 @@
+"""Scenario files: the shipped lab scenarios are what docs/task_allocation.md says, and every
+malformed fixture (test/data/scenarios/) gives its one-line error naming file, element and
+problem, also through the `evaluate` command (exit 2, no traceback)."""
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy import ndimage
+
+from marl_mrta.env.factory import make_env
+from marl_mrta.mapping.occupancy_map import FREE
+from marl_mrta.scenario import ScenarioError, load_scenario
+
+ROOT = Path(__file__).resolve().parents[2]
+FIXTURES = ROOT / "test" / "data" / "scenarios"
+START_POSES = [(0.5, 0.5, 0.0), (0.5, 4.5, 0.0), (6.5, 0.5, math.pi), (6.5, 4.5, math.pi)]
+
+
+@pytest.mark.parametrize("robots", [2, 3, 4])
+def test_shipped_lab_scenarios(robots):
+    scenario = load_scenario(ROOT / "scenarios" / f"lab_{robots}r.xml")
+    assert scenario.name == f"lab_{robots}r" and scenario.n_robots == robots
+    assert [t.id for t in scenario.tasks] == ["A1", "A2", "A3", "A4", "B1", "B2", "B3", "B4"]
+    for robot, expected in zip(scenario.robots, START_POSES):
+        assert (robot.start.x, robot.start.y, robot.start.yaw) == pytest.approx(expected, abs=1e-5)
+    for i in range(1, 5):
+        assert scenario.predecessors[scenario.task_index(f"B{i}")] == (scenario.task_index(f"A{i}"),)
+        assert scenario.predecessors[scenario.task_index(f"A{i}")] == ()
+    assert scenario.episode_timeout == 120.0
+    grid_map = scenario.load_map()
+    clearance = ndimage.distance_transform_edt(grid_map.grid == FREE) * grid_map.resolution
+    west = [t for t in scenario.tasks if t.goal.x < 3.4]
+    east = [t for t in scenario.tasks if t.goal.x > 3.6]
+    assert len(west) == 4 and len(east) == 4             # both halves of the lab
+    for task in scenario.tasks:
+        cell = grid_map.world_to_cell(task.goal.x, task.goal.y)
+        assert clearance[cell.row, cell.col] >= 0.35, task.id
+
+
+def test_valid_fixture_with_overrides_and_package_map():
+    scenario = load_scenario(FIXTURES / "valid.xml")
+    assert scenario.reward_overrides == {"logic": {"wrong_finished": 0.0}}
+    assert scenario.tasks[1].service_time == 1.5
+    env = make_env(scenario)
+    assert env.reward.logic_wrong_finished == 0.0 and env.reward.logic_wrong_unfinished == -5.0
+    assert load_scenario(FIXTURES / "valid_package_map.xml").map_path.resolve() == (ROOT / "maps" / "lab.yaml").resolve()
+
+
+MALFORMED = [
+    ("unknown_task_in_precedence", '<edge before="A1" after="C9">: unknown task \'C9\''),
+    ("precedence_cycle", "<precedence>: precedence has a cycle: A1 -> B1 -> A1"),
+    ("goal_in_obstacle", '<task id="A1">: goal (1.75, 1.5) is inside an obstacle'),
+    ("goal_off_map", '<task id="A1">: goal (9, 1) is off the map'),
+    ("duplicate_task_id", '<task id="A1">: duplicate task id'),
+    ("duplicate_robot_id", '<robot id="tb3_0">: duplicate robot id'),
+    ("missing_field", "<robot id=\"tb3_1\">: missing attribute 'y'"),
+    ("non_numeric_field", "<task id=\"A1\">: attribute 'x' is not a number: 'one'"),
+    ("missing_nav_time", "<scenario>: missing element <nav_time>"),
+    ("bad_timeout", "<episode>: timeout must be positive, got -5"),
+    ("unknown_reward_key", "<logic>: unknown attribute 'wrong_finishd'"),
+    ("missing_map_file", "<map>: cannot load the map:"),
+    ("not_xml", "file: not well-formed XML"),
+]
+
+
+@pytest.mark.parametrize("name,message", MALFORMED, ids=[m[0] for m in MALFORMED])
+def test_malformed_scenario_gives_one_line(name, message):
+    path = FIXTURES / f"{name}.xml"
+    with pytest.raises(ScenarioError) as error:
+        load_scenario(path)
+    text = str(error.value)
+    assert "\n" not in text
+    assert text.startswith(f"{path}: ")
+    assert message in text
+
+
+def test_goal_where_navigation_cannot_plan_is_rejected_when_building_the_environment():
+    path = FIXTURES / "goal_too_close_to_wall.xml"
+    load_scenario(path)   # on a free cell: the file itself is well-formed
+    with pytest.raises(ScenarioError) as error:
+        make_env(path)
+    assert str(error.value) == (f"{path}: <task id=\"A1\">: goal (0.05, 1) is within 0.105 m of an obstacle, "
+                                "where navigation cannot plan")
+
+
+@pytest.mark.parametrize("name", ["precedence_cycle", "goal_too_close_to_wall"])
+def test_evaluate_command_reports_one_line_and_exit_2(name, tmp_path):
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")]))
+    result = subprocess.run([sys.executable, str(ROOT / "scripts" / "evaluate"), "--method", "random",
+                             "--scenario", str(FIXTURES / f"{name}.xml"), "--episodes", "1", "--quiet",
+                             "--out", str(tmp_path / "out.json")],
+                            capture_output=True, text=True, env=env, timeout=120)
+    assert result.returncode == 2
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"evaluate: {FIXTURES / name}.xml: ")
+    assert not (tmp_path / "out.json").exists()
