@@ -1,1 +1,50 @@
-# Simulator: ROS-free core (marl_mrta_sim_core) + the `simulator` node.
+# Simulator: ROS-free core (marl_mrta_sim_core) + the `simulator` node (docs/simulator.md).
+add_library(${PROJECT_NAME}_sim_core
+  src/sim/diff_drive.cpp
+  src/sim/lidar.cpp
+  src/sim/lockstep_gate.cpp
+  src/sim/obstacle_grid.cpp
+  src/sim/robot_model.cpp
+  src/sim/scan_caster.cpp
+  src/sim/sim_config.cpp
+  src/sim/world.cpp
+)
+target_link_libraries(${PROJECT_NAME}_sim_core ${PROJECT_NAME}_map)
+
+# The node: a thin ROS shell around the core.
+add_executable(simulator
+  src/sim/sim_messages_ros.cpp
+  src/sim/sim_params_ros.cpp
+  src/sim/simulator_node.cpp
+  src/sim/simulator_ros.cpp
+)
+add_dependencies(simulator ${PROJECT_NAME}_generate_messages_cpp ${catkin_EXPORTED_TARGETS})
+target_link_libraries(simulator ${PROJECT_NAME}_sim_core ${catkin_LIBRARIES})
+
+# Benchmark helpers (scripts/bench_sim): the core alone, and a subscriber to every topic.
+add_executable(bench_sim_core src/sim/bench_sim_core.cpp)
+target_link_libraries(bench_sim_core ${PROJECT_NAME}_sim_core)
+add_executable(bench_sim_sink src/sim/bench_sim_sink.cpp)
+add_dependencies(bench_sim_sink ${PROJECT_NAME}_generate_messages_cpp ${catkin_EXPORTED_TARGETS})
+target_link_libraries(bench_sim_sink ${catkin_LIBRARIES})
+
+install(TARGETS bench_sim_core bench_sim_sink ${PROJECT_NAME}_sim_core simulator
+  ARCHIVE DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
+  LIBRARY DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
+  RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION}
+)
+
+if(CATKIN_ENABLE_TESTING)
+  # Core only: no roscore, no ROS libraries.
+  catkin_add_gtest(test_sim_core
+    test/gtest/sim/test_arenas.cpp
+    test/gtest/sim/test_collisions.cpp
+    test/gtest/sim/test_drive.cpp
+    test/gtest/sim/test_lidar.cpp
+    test/gtest/sim/test_lockstep_gate.cpp
+    test/gtest/sim/test_sim_config.cpp
+  )
+  if(TARGET test_sim_core)
+    target_link_libraries(test_sim_core ${PROJECT_NAME}_sim_core ${MARL_MRTA_GTEST_MAIN})
+  endif()
+endif()

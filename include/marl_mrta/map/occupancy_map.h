@@ -1,0 +1,83 @@
+// Occupancy maps in map_server format (YAML + PGM), loaded without ROS.
+//
+// The semantics are map_server's (noetic): the image path is relative to the YAML file,
+// occ = (255 - mean) / 255 (mean inverted first when `negate` is set), trinary / scale / raw
+// modes, and grid row 0 is the bottom row of the image. The cell values follow
+// nav_msgs/OccupancyGrid: 100 occupied, 0 free, -1 unknown (scale mode: 1..99 in between).
+#pragma once
+
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace marl_mrta {
+namespace map {
+
+// A problem in a map file. what() is one line: "<file>: <field>: <problem>".
+class MapError : public std::runtime_error {
+ public:
+  MapError(const std::string& file, const std::string& field, const std::string& problem);
+  const std::string& file() const { return file_; }
+  const std::string& field() const { return field_; }
+  const std::string& problem() const { return problem_; }
+
+ private:
+  std::string file_, field_, problem_;
+};
+
+enum class MapMode { kTrinary, kScale, kRaw };
+
+struct OccupancyMap {
+  static constexpr int8_t kFree = 0;
+  static constexpr int8_t kOccupied = 100;
+  static constexpr int8_t kUnknown = -1;
+
+  double resolution = 0.0;   // [m / cell]
+  double origin_x = 0.0;     // pose of the outer corner of cell (0, 0) in the map frame [m, m, rad]
+  double origin_y = 0.0;
+  double origin_yaw = 0.0;
+  int width = 0;             // cells along x
+  int height = 0;            // cells along y
+  std::vector<int8_t> data;  // row-major, row 0 at the bottom (origin side)
+  std::string yaml_path;     // where the map was loaded from (for messages); empty if built in code
+
+  // Cell containing the world point; false (cx, cy untouched) when outside the grid.
+  bool worldToCell(double wx, double wy, int& cx, int& cy) const;
+  // World coordinates of the centre of a cell (also defined outside the grid).
+  void cellToWorld(int cx, int cy, double& wx, double& wy) const;
+  bool inBounds(int cx, int cy) const { return cx >= 0 && cy >= 0 && cx < width && cy < height; }
+  // Value of an in-bounds cell.
+  int8_t at(int cx, int cy) const { return data[static_cast<size_t>(cy) * width + cx]; }
+};
+
+// The fields of a map_server YAML file, checked (image path made absolute).
+struct MapYaml {
+  std::string image_path;
+  double resolution = 0.0;
+  double origin_x = 0.0, origin_y = 0.0, origin_yaw = 0.0;
+  bool negate = false;
+  double occupied_thresh = 0.65;
+  double free_thresh = 0.196;
+  MapMode mode = MapMode::kTrinary;
+};
+
+// An 8-bit grey image, row-major, row 0 at the top (as stored in the file).
+struct GrayImage {
+  int width = 0;
+  int height = 0;
+  std::vector<uint8_t> pixels;
+};
+
+// Loads a map_server YAML file and its image. Throws MapError.
+OccupancyMap loadMap(const std::string& yaml_path);
+
+// The steps of loadMap, for tools and tests.
+MapYaml readMapYaml(const std::string& yaml_path);
+// Binary (P5) or ASCII (P2) PGM; samples scaled to 0..255 when maxval differs. Throws MapError.
+GrayImage readPgm(const std::string& path);
+// map_server's pixel -> cell conversion (including the bottom-up row order).
+std::vector<int8_t> occupancyFromImage(const GrayImage& image, const MapYaml& params);
+
+}  // namespace map
+}  // namespace marl_mrta

@@ -1,0 +1,53 @@
+// When the simulator may advance: the lock-step bookkeeping and the real-time pacing of the
+// node's loop, ROS-free (wall time is passed in) so that both are unit-tested.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+namespace marl_mrta {
+namespace sim {
+
+// Lock-step: tick T is answered once every participating robot has an ack for T and the
+// simulator has received at least as many cmd_vel messages for it as the ack counts.
+class LockstepGate {
+ public:
+  // participating[g]: robot g (global index) must be answered.
+  explicit LockstepGate(std::vector<bool> participating);
+
+  void commandReceived(int robot) { ++commands_received_[robot]; }
+  // Records an ack made for `tick` while the simulator is at `current_tick` (acks for other
+  // ticks are stale and ignored). Returns false when the robot does not participate.
+  bool ackReceived(int robot, uint64_t tick, uint64_t cmd_vel_count, uint64_t current_tick);
+  bool answered(uint64_t tick) const;
+  // Participating robots still missing for `tick` (for messages).
+  std::vector<int> missing(uint64_t tick) const;
+
+ private:
+  std::vector<bool> participating_;
+  std::vector<uint64_t> commands_received_;
+  std::vector<int64_t> acked_tick_;
+  std::vector<uint64_t> acked_commands_;
+};
+
+// Real-time pacing: with rtf > 0, the step to tick T+1 is due rtf times faster than sim time
+// runs, counted from an anchor (so short delays are caught up rather than summed); a lag of
+// more than max_lag wall seconds (a loaded machine, a pause) starts afresh instead of racing.
+class RealTimePacer {
+ public:
+  RealTimePacer(double physics_rate, double rtf, double max_lag);
+
+  void restart() { anchored_ = false; }
+  // Wall seconds to wait before stepping from `tick` (0: step now).
+  double waitBeforeStep(double wall_now, uint64_t tick);
+
+ private:
+  double wall_per_tick_;  // 0: as fast as possible
+  double max_lag_;
+  bool anchored_ = false;
+  double anchor_wall_ = 0.0;
+  uint64_t anchor_tick_ = 0;
+};
+
+}  // namespace sim
+}  // namespace marl_mrta

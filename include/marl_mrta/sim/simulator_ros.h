@@ -1,0 +1,79 @@
+// The `simulator` node's ROS interface around one World: topics, tf, /clock, services,
+// real-time pacing and the lock-step protocol (docs/architecture.md, docs/simulator.md).
+#pragma once
+
+#include <ros/ros.h>
+#include <tf2_ros/transform_broadcaster.h>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <geometry_msgs/Twist.h>
+#include <marl_mrta/LockstepAck.h>
+#include <marl_mrta/ResetSim.h>
+#include <marl_mrta/SimTick.h>
+#include <marl_mrta/StepSim.h>
+#include <std_srvs/SetBool.h>
+
+#include "marl_mrta/sim/lockstep_gate.h"
+#include "marl_mrta/sim/sim_config.h"
+#include "marl_mrta/sim/sim_messages_ros.h"
+#include "marl_mrta/sim/world.h"
+
+namespace marl_mrta {
+namespace sim {
+
+class SimulatorRos {
+ public:
+  // Reads and checks the parameters, loads the map, builds the world. Throws ConfigError,
+  // map::MapError or WorldError (one line each, naming the parameter or file).
+  SimulatorRos(ros::NodeHandle& nh, ros::NodeHandle& private_nh);
+
+  // Runs until shutdown or stop_after; returns the process exit code.
+  int run();
+
+ private:
+  struct RobotIo {
+    std::string ns;
+    ros::Subscriber cmd_vel_sub;
+    ros::Publisher odom_pub, ground_truth_pub, scan_pub;
+    RobotMessages msgs;  // frame ids filled once
+  };
+  // Wall time spent per part of the loop while running (not paused), for ~stats_file.
+  struct Timing {
+    double simulate = 0.0, publish = 0.0, paused = 0.0;
+    ros::WallTime start, paused_since;
+    uint64_t paused_ticks = 0;  // ticks advanced by ~step while paused
+  };
+
+  void advertise(ros::NodeHandle& nh, ros::NodeHandle& private_nh);
+  void onCmdVel(size_t robot, const geometry_msgs::Twist::ConstPtr& msg);
+  void onLockstepAck(const marl_mrta::LockstepAck::ConstPtr& msg);
+  bool onReset(marl_mrta::ResetSim::Request& req, marl_mrta::ResetSim::Response& res);
+  bool onPause(std_srvs::SetBool::Request& req, std_srvs::SetBool::Response& res);
+  bool onStep(marl_mrta::StepSim::Request& req, marl_mrta::StepSim::Response& res);
+
+  void stepAndPublish();
+  void publishState(const StepReport& report, bool initial);
+  ros::Time stamp() const;
+  void warnLockstepWait() const;
+  void writeStats() const;
+
+  SimConfig config_;
+  std::unique_ptr<World> world_;
+  std::vector<RobotIo> robots_;
+  ros::Publisher clock_pub_, tick_pub_, collisions_pub_;
+  ros::Subscriber lockstep_ack_sub_;
+  ros::ServiceServer reset_srv_, pause_srv_, step_srv_;
+  tf2_ros::TransformBroadcaster tf_broadcaster_;
+  std::vector<geometry_msgs::TransformStamped> transforms_;
+  marl_mrta::SimTick last_tick_;  // re-sent while lock-step answers are missing
+  std::unique_ptr<LockstepGate> lockstep_;
+  std::unique_ptr<RealTimePacer> pacer_;
+  bool paused_ = false;
+  Timing timing_;
+};
+
+}  // namespace sim
+}  // namespace marl_mrta

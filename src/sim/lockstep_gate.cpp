@@ -1,0 +1,53 @@
+#include "marl_mrta/sim/lockstep_gate.h"
+
+#include <cstddef>
+
+namespace marl_mrta {
+namespace sim {
+
+LockstepGate::LockstepGate(std::vector<bool> participating)
+    : participating_(std::move(participating)),
+      commands_received_(participating_.size(), 0),
+      acked_tick_(participating_.size(), -1),
+      acked_commands_(participating_.size(), 0) {}
+
+bool LockstepGate::ackReceived(int robot, uint64_t tick, uint64_t cmd_vel_count, uint64_t current_tick) {
+  if (!participating_[robot]) return false;
+  if (tick == current_tick) {
+    acked_tick_[robot] = static_cast<int64_t>(tick);
+    acked_commands_[robot] = cmd_vel_count;
+  }
+  return true;
+}
+
+bool LockstepGate::answered(uint64_t tick) const { return missing(tick).empty(); }
+
+std::vector<int> LockstepGate::missing(uint64_t tick) const {
+  std::vector<int> robots;
+  for (std::size_t g = 0; g < participating_.size(); ++g) {
+    if (participating_[g] &&
+        (acked_tick_[g] != static_cast<int64_t>(tick) || commands_received_[g] < acked_commands_[g])) {
+      robots.push_back(static_cast<int>(g));
+    }
+  }
+  return robots;
+}
+
+RealTimePacer::RealTimePacer(double physics_rate, double rtf, double max_lag)
+    : wall_per_tick_(rtf > 0.0 ? 1.0 / (physics_rate * rtf) : 0.0), max_lag_(max_lag) {}
+
+double RealTimePacer::waitBeforeStep(double wall_now, uint64_t tick) {
+  if (wall_per_tick_ <= 0.0) return 0.0;
+  if (!anchored_) {
+    anchored_ = true;
+    anchor_wall_ = wall_now;
+    anchor_tick_ = tick;
+  }
+  const double due = anchor_wall_ + (tick + 1 - anchor_tick_) * wall_per_tick_;
+  if (wall_now < due) return due - wall_now;
+  if (wall_now - due > max_lag_) anchored_ = false;
+  return 0.0;
+}
+
+}  // namespace sim
+}  // namespace marl_mrta

@@ -1,0 +1,258 @@
+#include "marl_mrta/sim/simulator_ros.h"
+
+#include <marl_mrta/CollisionEvent.h>
+#include <rosgraph_msgs/Clock.h>
+#include <ros/callback_queue.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+
+#include "marl_mrta/map/occupancy_map.h"
+#include "marl_mrta/sim/sim_messages_ros.h"
+#include "marl_mrta/sim/sim_params_ros.h"
+
+namespace marl_mrta {
+namespace sim {
+
+namespace {
+
+// While a lock-step controller is missing, the current tick is re-sent this often [wall s],
+// so that controllers started after the simulator join in.
+constexpr double kLockstepResendPeriod = 0.5;
+// Further behind real time than this [wall s] (a loaded machine), pacing starts afresh
+// rather than running flat out to catch up.
+constexpr double kMaxPacingLag = 1.0;
+// Waiting this long [wall s] for lock-step answers is worth a warning.
+constexpr double kLockstepWarnAfter = 5.0;
+
+}  // namespace
+
+SimulatorRos::SimulatorRos(ros::NodeHandle& nh, ros::NodeHandle& private_nh) {
+  config_ = readSimConfig(private_nh);
+  const std::string prefix = private_nh.getNamespace() + "/";
+  WorldConfig world_config;
+  try {
+    world_config = makeWorldConfig(config_);
+  } catch (const ConfigError& e) {
+    throw ConfigError(prefix + e.field(), e.problem());
+  }
+  const map::OccupancyMap map = map::loadMap(config_.map_file);
+  try {
+    world_ = std::make_unique<World>(map, world_config);
+  } catch (const WorldError& e) {
+    throw ConfigError(prefix + e.field(), e.problem());
+  }
+  advertise(nh, private_nh);
+  pacer_ = std::make_unique<RealTimePacer>(config_.physics_rate, config_.rtf, kMaxPacingLag);
+  ROS_INFO("simulator: %d robot(s) in %d arena(s) on %s (%d x %d cells), physics %g Hz, scans %g Hz, rtf %g%s",
+           config_.robots, config_.arenas, config_.map_file.c_str(), map.width, map.height, config_.physics_rate,
+           config_.scan_rate, config_.rtf, config_.lockstep ? ", lock-step" : "");
+}
+
+void SimulatorRos::advertise(ros::NodeHandle& nh, ros::NodeHandle& private_nh) {
+  const std::vector<std::string> names = robotNamespaces(config_);
+  robots_.resize(names.size());
+  transforms_.resize(names.size());
+  for (size_t g = 0; g < names.size(); ++g) {
+    RobotIo& io = robots_[g];
+    io.ns = names[g];
+    // Large queue: in lock-step every command must arrive (the acks count them).
+    io.cmd_vel_sub = nh.subscribe<geometry_msgs::Twist>(
+        io.ns + "/cmd_vel", 100,
+        boost::function<void(const geometry_msgs::Twist::ConstPtr&)>(
+            [this, g](const geometry_msgs::Twist::ConstPtr& msg) { onCmdVel(g, msg); }),
+        ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
+    // Queues of 100: a subscriber on a busy machine may fall behind for a while at high rtf.
+    io.odom_pub = nh.advertise<nav_msgs::Odometry>(io.ns + "/odom", 100);
+    io.ground_truth_pub = nh.advertise<nav_msgs::Odometry>(io.ns + "/base_pose_ground_truth", 100);
+    io.scan_pub = nh.advertise<sensor_msgs::LaserScan>(io.ns + "/scan", 100);
+    io.msgs = robotMessages(io.ns, world_->config().robot.lidar, config_.scan_rate);
+  }
+  std::vector<bool> lockstep(names.size(), false);
+  const auto& listed = config_.lockstep_robots;
+  for (size_t g = 0; g < names.size(); ++g) {
+    lockstep[g] = config_.lockstep && (listed.empty() || std::find(listed.begin(), listed.end(), names[g]) != listed.end());
+  }
+  lockstep_ = std::make_unique<LockstepGate>(lockstep);
+  clock_pub_ = nh.advertise<rosgraph_msgs::Clock>("/clock", 10);
+  tick_pub_ = private_nh.advertise<marl_mrta::SimTick>("tick", 100);
+  collisions_pub_ = private_nh.advertise<marl_mrta::CollisionEvent>("collisions", 100);
+  // No Nagle delay on what a lock-step round trip waits for.
+  lockstep_ack_sub_ = private_nh.subscribe("lockstep_ack", 100, &SimulatorRos::onLockstepAck, this,
+                                           ros::TransportHints().tcpNoDelay());
+  reset_srv_ = private_nh.advertiseService("reset", &SimulatorRos::onReset, this);
+  pause_srv_ = private_nh.advertiseService("pause", &SimulatorRos::onPause, this);
+  step_srv_ = private_nh.advertiseService("step", &SimulatorRos::onStep, this);
+}
+
+void SimulatorRos::onCmdVel(size_t robot, const geometry_msgs::Twist::ConstPtr& msg) {
+  lockstep_->commandReceived(static_cast<int>(robot));
+  if (!world_->setCommand(static_cast<int>(robot), {msg->linear.x, msg->angular.z})) {
+    ROS_WARN_THROTTLE(5.0, "%s/cmd_vel: command with a non-finite value ignored", robots_[robot].ns.c_str());
+  }
+}
+
+void SimulatorRos::onLockstepAck(const marl_mrta::LockstepAck::ConstPtr& msg) {
+  const auto found = std::find_if(robots_.begin(), robots_.end(), [&](const RobotIo& io) { return io.ns == msg->robot; });
+  if (found == robots_.end() ||
+      !lockstep_->ackReceived(static_cast<int>(found - robots_.begin()), msg->tick, msg->cmd_vel_count, world_->tick())) {
+    ROS_WARN_THROTTLE(5.0, "lockstep_ack: robot '%s' is not in ~lockstep_robots; ignored", msg->robot.c_str());
+  }
+}
+
+bool SimulatorRos::onReset(marl_mrta::ResetSim::Request& req, marl_mrta::ResetSim::Response& res) {
+  std::vector<std::pair<int, Pose2D>> poses;
+  if (req.robots.size() != req.poses.size()) {
+    res.message = "robots and poses differ in length (" + std::to_string(req.robots.size()) + " vs " +
+                  std::to_string(req.poses.size()) + ")";
+  }
+  for (size_t i = 0; i < req.robots.size() && res.message.empty(); ++i) {
+    const auto found = std::find_if(robots_.begin(), robots_.end(),
+                                    [&](const RobotIo& io) { return io.ns == req.robots[i]; });
+    if (found == robots_.end()) res.message = "unknown robot '" + req.robots[i] + "'";
+    else poses.push_back({static_cast<int>(found - robots_.begin()), {req.poses[i].x, req.poses[i].y, req.poses[i].theta}});
+  }
+  if (res.message.empty()) res.message = world_->reset(req.arena, poses);
+  res.success = res.message.empty();
+  if (res.success) res.message = "reset at tick " + std::to_string(world_->tick());
+  return true;
+}
+
+bool SimulatorRos::onPause(std_srvs::SetBool::Request& req, std_srvs::SetBool::Response& res) {
+  const ros::WallTime now = ros::WallTime::now();
+  if (req.data && !paused_) timing_.paused_since = now;
+  if (!req.data && paused_) timing_.paused += (now - timing_.paused_since).toSec();
+  paused_ = req.data;
+  pacer_->restart();
+  res.success = true;
+  res.message = (paused_ ? "paused at tick " : "running from tick ") + std::to_string(world_->tick());
+  return true;
+}
+
+bool SimulatorRos::onStep(marl_mrta::StepSim::Request& req, marl_mrta::StepSim::Response& res) {
+  for (uint32_t i = 0; i < req.ticks; ++i) stepAndPublish();
+  if (paused_) timing_.paused_ticks += req.ticks;
+  pacer_->restart();
+  res.tick = world_->tick();
+  res.stamp = stamp();
+  return true;
+}
+
+ros::Time SimulatorRos::stamp() const {
+  ros::Time time;
+  time.fromNSec(static_cast<uint64_t>(std::llround(world_->tick() * 1e9 / config_.physics_rate)));
+  return time;
+}
+
+void SimulatorRos::stepAndPublish() {
+  const ros::WallTime start = ros::WallTime::now();
+  const StepReport& report = world_->step();
+  const ros::WallTime simulated = ros::WallTime::now();
+  publishState(report, false);
+  timing_.simulate += (simulated - start).toSec();
+  timing_.publish += (ros::WallTime::now() - simulated).toSec();
+}
+
+void SimulatorRos::publishState(const StepReport& report, bool initial) {
+  const ros::Time now = stamp();
+  rosgraph_msgs::Clock clock;
+  clock.clock = now;
+  clock_pub_.publish(clock);
+  for (const CollisionEvent& event : report.collisions) {
+    marl_mrta::CollisionEvent msg;
+    msg.stamp = now;
+    msg.arena = event.arena;
+    msg.robot = robots_[world_->globalIndex(event.arena, event.robot)].ns;
+    msg.other = event.other_robot == CollisionEvent::kWall
+                    ? "wall" : robots_[world_->globalIndex(event.arena, event.other_robot)].ns;
+    msg.position.x = event.contact.x;
+    msg.position.y = event.contact.y;
+    collisions_pub_.publish(msg);
+  }
+  if (initial || report.odom_due) {
+    for (size_t g = 0; g < robots_.size(); ++g) {
+      RobotIo& io = robots_[g];
+      const RobotState& state = world_->robot(static_cast<int>(g));
+      fillOdometry(io.msgs.odom, now, state.odom_pose, state.velocity);
+      fillOdometry(io.msgs.ground_truth, now, state.pose, state.velocity);
+      io.odom_pub.publish(io.msgs.odom);
+      io.ground_truth_pub.publish(io.msgs.ground_truth);
+      fillTransform(io.msgs.odom_tf, now, state.odom_pose);
+      transforms_[g] = io.msgs.odom_tf;
+    }
+    tf_broadcaster_.sendTransform(transforms_);  // one message for every robot
+  }
+  const bool scans = config_.scan_rate > 0.0 && (initial || report.scan_updated);
+  if (scans) {
+    for (size_t g = 0; g < robots_.size(); ++g) {
+      RobotIo& io = robots_[g];
+      io.msgs.scan.header.stamp = now;
+      io.msgs.scan.ranges = world_->robot(static_cast<int>(g)).scan;
+      io.scan_pub.publish(io.msgs.scan);
+    }
+  }
+  last_tick_.tick = world_->tick();
+  last_tick_.stamp = now;
+  last_tick_.scan_published = scans;
+  tick_pub_.publish(last_tick_);
+}
+
+int SimulatorRos::run() {
+  ros::CallbackQueue& queue = *ros::getGlobalCallbackQueue();
+  timing_.start = timing_.paused_since = ros::WallTime::now();
+  paused_ = config_.start_paused;
+  publishState(StepReport{}, true);
+  ros::WallTime tick_sent = timing_.start, tick_stepped = timing_.start;
+  while (ros::ok()) {
+    queue.callAvailable();
+    if (config_.stop_after > 0.0 && world_->time() >= config_.stop_after - 1e-9) break;
+    if (paused_) {
+      queue.callAvailable(ros::WallDuration(0.05));
+      continue;
+    }
+    const ros::WallTime now = ros::WallTime::now();
+    if (!lockstep_->answered(world_->tick())) {
+      if ((now - tick_sent).toSec() > kLockstepResendPeriod) {  // for controllers that joined late
+        tick_pub_.publish(last_tick_);
+        if ((now - tick_stepped).toSec() > kLockstepWarnAfter) warnLockstepWait();
+        tick_sent = now;
+      }
+      queue.callAvailable(ros::WallDuration(0.01));  // returns as soon as an answer arrives
+      pacer_->restart();
+      continue;
+    }
+    const double wait = pacer_->waitBeforeStep(now.toSec(), world_->tick());
+    if (wait > 0.0) {
+      queue.callAvailable(ros::WallDuration(wait));  // sleeps, but serves callbacks meanwhile
+      continue;
+    }
+    stepAndPublish();
+    tick_sent = tick_stepped = now;
+  }
+  writeStats();
+  return 0;
+}
+
+void SimulatorRos::warnLockstepWait() const {
+  std::string missing;
+  for (int g : lockstep_->missing(world_->tick())) missing += (missing.empty() ? "" : ", ") + robots_[g].ns;
+  ROS_WARN_THROTTLE(5.0, "waiting for lock-step answers for tick %lu from: %s",
+                    static_cast<unsigned long>(world_->tick()), missing.c_str());
+}
+
+void SimulatorRos::writeStats() const {
+  if (config_.stats_file.empty()) return;
+  // Only the time spent running counts (a benchmark starts paused while subscribers connect).
+  const ros::WallTime now = ros::WallTime::now();
+  const double wall = (now - timing_.start).toSec() - timing_.paused - (paused_ ? (now - timing_.paused_since).toSec() : 0.0);
+  const double sim = (world_->tick() - timing_.paused_ticks) / config_.physics_rate;
+  std::ofstream out(config_.stats_file);
+  out << "{\"robots\": " << robots_.size() << ", \"ticks\": " << world_->tick() << ", \"sim_seconds\": " << sim
+      << ", \"wall_seconds\": " << wall << ", \"rtf\": " << sim / wall << ", \"simulate_seconds\": " << timing_.simulate
+      << ", \"publish_seconds\": " << timing_.publish << "}\n";
+  if (!out) ROS_ERROR("%s: stats_file: cannot write", config_.stats_file.c_str());
+}
+
+}  // namespace sim
+}  // namespace marl_mrta

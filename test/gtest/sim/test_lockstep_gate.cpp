@@ -1,0 +1,69 @@
+// The lock-step bookkeeping and the real-time pacing of the node's loop.
+#include <gtest/gtest.h>
+
+#include "marl_mrta/sim/lockstep_gate.h"
+
+namespace marl_mrta {
+namespace sim {
+namespace {
+
+TEST(LockstepGate, AdvancesOnlyWhenEveryParticipantAnsweredWithItsCommands) {
+  LockstepGate gate({true, false, true});  // robot 1 has no lock-step controller
+  EXPECT_FALSE(gate.answered(0));
+  EXPECT_EQ(gate.missing(0), (std::vector<int>{0, 2}));
+  EXPECT_TRUE(gate.ackReceived(0, 0, 0, 0));
+  EXPECT_FALSE(gate.ackReceived(1, 0, 0, 0));  // not participating: ignored
+  EXPECT_FALSE(gate.answered(0));
+  // Robot 2 acks one command that has not arrived yet.
+  EXPECT_TRUE(gate.ackReceived(2, 0, 1, 0));
+  EXPECT_EQ(gate.missing(0), (std::vector<int>{2}));
+  gate.commandReceived(2);
+  EXPECT_TRUE(gate.answered(0));
+  // The next tick needs new answers.
+  EXPECT_FALSE(gate.answered(1));
+  gate.ackReceived(0, 1, 0, 1);
+  gate.ackReceived(2, 1, 1, 1);
+  EXPECT_TRUE(gate.answered(1));
+}
+
+TEST(LockstepGate, StaleAndEarlyAcksAreIgnored) {
+  LockstepGate gate({true});
+  gate.ackReceived(0, 4, 0, 5);  // answer to an earlier (re-sent) tick
+  EXPECT_FALSE(gate.answered(5));
+  gate.ackReceived(0, 6, 0, 5);  // for a tick not reached yet
+  EXPECT_FALSE(gate.answered(5));
+  gate.ackReceived(0, 5, 0, 5);
+  EXPECT_TRUE(gate.answered(5));
+}
+
+TEST(LockstepGate, NobodyParticipatingNeverWaits) {
+  LockstepGate gate({false, false});
+  EXPECT_TRUE(gate.answered(0));
+  EXPECT_TRUE(gate.answered(17));
+}
+
+TEST(RealTimePacer, StepsAreDueAtTheRealTimeFactor) {
+  RealTimePacer pacer(20.0, 2.0, 1.0);  // a tick every 0.025 s of wall time
+  EXPECT_NEAR(pacer.waitBeforeStep(100.0, 0), 0.025, 1e-12);
+  EXPECT_EQ(pacer.waitBeforeStep(100.025, 0), 0.0);
+  EXPECT_NEAR(pacer.waitBeforeStep(100.030, 1), 0.020, 1e-9);
+  // A short delay is caught up: the next steps are due at once.
+  EXPECT_EQ(pacer.waitBeforeStep(100.2, 2), 0.0);
+  EXPECT_EQ(pacer.waitBeforeStep(100.2, 3), 0.0);
+  EXPECT_NEAR(pacer.waitBeforeStep(100.2, 7), 0.0, 1e-12);
+  EXPECT_NEAR(pacer.waitBeforeStep(100.2, 8), 0.025, 1e-9);
+}
+
+TEST(RealTimePacer, ALongLagStartsAfreshAndZeroMeansAsFastAsPossible) {
+  RealTimePacer pacer(20.0, 1.0, 1.0);
+  EXPECT_NEAR(pacer.waitBeforeStep(0.0, 0), 0.05, 1e-12);
+  EXPECT_EQ(pacer.waitBeforeStep(5.0, 0), 0.0);           // 4.95 s late: step, then re-anchor
+  EXPECT_NEAR(pacer.waitBeforeStep(5.0, 1), 0.05, 1e-12);  // paced from now on, no burst
+  RealTimePacer unpaced(20.0, 0.0, 1.0);
+  EXPECT_EQ(unpaced.waitBeforeStep(0.0, 0), 0.0);
+  EXPECT_EQ(unpaced.waitBeforeStep(0.0, 1000), 0.0);
+}
+
+}  // namespace
+}  // namespace sim
+}  // namespace marl_mrta

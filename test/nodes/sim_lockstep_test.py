@@ -1,0 +1,92 @@
+#!/usr/bin/env python3
+"""rostest: lock-step runs end in bit-identical poses, on an idle and on a loaded machine.
+
+Runs ``sim.launch robots:=2 lockstep:=true rtf:=0`` three times against the test's master,
+each with the scripted controller test/nodes/sim_lockstep_commander.py, which drives both
+robots with tick-dependent commands up to ``~final_tick`` and writes the final ground-truth
+poses. The third run shares the machine with two busy-looping processes (one per core).
+"""
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import unittest
+
+import rospy
+import rostest
+
+START_POSES = {"tb3_0": (0.5, 0.5), "tb3_1": (0.5, 4.5)}  # config/sim.yaml
+
+
+def stop(process, timeout=20.0):
+    """SIGINT to the process group (what Ctrl-C does to roslaunch), then SIGKILL."""
+    if process.poll() is not None:
+        return
+    os.killpg(process.pid, signal.SIGINT)
+    try:
+        process.wait(timeout)
+    except subprocess.TimeoutExpired:
+        os.killpg(process.pid, signal.SIGKILL)
+        process.wait()
+
+
+class LockstepTest(unittest.TestCase):
+    def setUp(self):
+        self.tmp = tempfile.mkdtemp(prefix="sim_lockstep_")
+        self.final_tick = int(rospy.get_param("~final_tick", 400))
+
+    def tearDown(self):
+        shutil.rmtree(self.tmp, ignore_errors=True)
+
+    def run_once(self, tag):
+        result_path = os.path.join(self.tmp, tag + ".json")
+        log = open(os.path.join(self.tmp, tag + ".log"), "w")
+        simulator = subprocess.Popen(
+            ["roslaunch", "marl_mrta", "sim.launch", "robots:=2", "lockstep:=true", "rtf:=0",
+             "robot_description:=false"],
+            stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+        commander = subprocess.Popen(
+            ["rosrun", "marl_mrta", "sim_lockstep_commander.py", "__name:=commander_" + tag,
+             "_final_tick:=%d" % self.final_tick, "_result_file:=" + result_path],
+            stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+        try:
+            commander.wait(timeout=240)
+        except subprocess.TimeoutExpired:
+            self.fail("%s: the commander did not reach tick %d (log: %s)" % (tag, self.final_tick, log.name))
+        finally:
+            stop(commander)
+            stop(simulator)
+            log.close()
+        self.assertEqual(commander.returncode, 0, "%s: commander failed, log:\n%s" % (tag, open(log.name).read()))
+        with open(result_path) as f:
+            result = json.load(f)
+        rospy.loginfo("%s run: poses %s, %d collision events", tag, result["poses"], len(result["collisions"]))
+        return result
+
+    def test_runs_are_bit_identical_also_under_load(self):
+        first = self.run_once("first")
+        second = self.run_once("second")
+        busy = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(2)]
+        try:
+            loaded = self.run_once("loaded")
+        finally:
+            for process in busy:
+                process.kill()
+                process.wait()
+
+        self.assertEqual(sorted(first["poses"]), ["tb3_0", "tb3_1"])
+        for name, (x0, y0) in START_POSES.items():
+            x, y = float.fromhex(first["poses"][name][0]), float.fromhex(first["poses"][name][1])
+            self.assertGreater(abs(x - x0) + abs(y - y0), 0.3, "%s did not move" % name)
+        self.assertEqual(second["poses"], first["poses"])
+        self.assertEqual(loaded["poses"], first["poses"])
+        self.assertEqual(second["collisions"], first["collisions"])
+        self.assertEqual(loaded["collisions"], first["collisions"])
+
+
+if __name__ == "__main__":
+    rospy.init_node("sim_lockstep_test")
+    rostest.rosrun("marl_mrta", "sim_lockstep", LockstepTest)
