@@ -23,18 +23,21 @@ export PATH := $(VENV)/bin:/usr/bin:/bin:$(PATH)
 ROS_ENV := source $(WS)/devel/setup.bash
 CATKIN_ARGS := -DPYTHON_EXECUTABLE=$(VENV)/bin/python3 -DCMAKE_BUILD_TYPE=Release -DCATKIN_ENABLE_TESTING=ON
 
-.PHONY: help setup build test demo bench lint clean
+.PHONY: help setup workspace build test demo bench lint clean
 help:
 	@sed -n '2,5p' $(PKG_DIR)/Makefile | sed 's/^# *//'
 
 setup:
 	@bash $(PKG_DIR)/tools/bootstrap.sh
 
-$(WS)/src/marl_mrta:
-	@mkdir -p $(WS)/src
-	@ln -sfn $(PKG_DIR) $(WS)/src/marl_mrta
+workspace:
+ifeq ($(WS),$(PKG_DIR)/.ws)
+	@bash $(PKG_DIR)/tools/workspace_view.sh $(PKG_DIR) $(WS)
+else ifneq ($(WS),$(ENCLOSING_WS))
+	@mkdir -p $(WS)/src && ln -sfn $(PKG_DIR) $(WS)/src/marl_mrta
+endif
 
-build: setup | $(WS)/src/marl_mrta
+build: setup workspace
 	@cd $(WS) && catkin_make -j$(JOBS) $(CATKIN_ARGS)
 
 test: build
