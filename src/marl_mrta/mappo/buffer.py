@@ -1,0 +1,148 @@
+"""Rollout storage, GAE, and minibatches of whole time chunks for the recurrent actor.
+
+Layout: time first, then environment, then robot — (T, E, N, ...). One decision step of one
+environment is one "step"; its N robots are trained together so the critic's global state is
+stored once per step. Episode ends split into `terminated` (all tasks reached: the return
+stops there) and `truncated` (timeout/abort: the return continues with the critic's value of
+the final state), following "Time Limits in Reinforcement Learning" (Pardo et al., 2018).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Iterator
+
+import numpy as np
+import torch
+
+
+@dataclass
+class GaeResult:
+    advantages: torch.Tensor   # (T, ...) GAE(γ, λ) advantages
+    returns: torch.Tensor      # (T, ...) advantages + values: the critic's targets
+
+
+def compute_gae(rewards: torch.Tensor, values: torch.Tensor, next_values: torch.Tensor,
+                terminated: torch.Tensor, episode_end: torch.Tensor,
+                gamma: float, gae_lambda: float) -> GaeResult:
+    """GAE over time (dim 0) for any trailing shape.
+
+    next_values[t] is the value of the state reached by step t: the next step's state inside
+    an episode, the final state of a truncated episode. terminated[t] drops that bootstrap;
+    episode_end[t] (terminated or truncated) stops the λ-sum from reaching into the next
+    episode. terminated/episode_end broadcast against rewards (e.g. (T, E, 1) vs (T, E, N)).
+    """
+    bootstrap = 1.0 - terminated.to(rewards.dtype)
+    carry = 1.0 - episode_end.to(rewards.dtype)
+    deltas = rewards + gamma * next_values * bootstrap - values
+    advantages = torch.zeros_like(rewards)
+    running = torch.zeros_like(rewards[0])
+    for t in reversed(range(rewards.shape[0])):
+        running = deltas[t] + gamma * gae_lambda * carry[t] * running
+        advantages[t] = running
+    return GaeResult(advantages=advantages, returns=advantages + values)
+
+
+@dataclass
+class Minibatch:
+    """A set of time chunks: tensors (L, B, ...) with L the chunk length, B chunks."""
+
+    obs: torch.Tensor            # (L, B, N, obs_in) actor inputs
+    state: torch.Tensor          # (L, B, state_dim)
+    actions: torch.Tensor        # (L, B, N) long
+    action_mask: torch.Tensor    # (L, B, N, A) bool
+    old_log_probs: torch.Tensor  # (L, B, N)
+    old_values: torch.Tensor     # (L, B, N) reward units, at collection
+    returns: torch.Tensor        # (L, B, N) reward units
+    advantages: torch.Tensor     # (L, B, N)
+    episode_start: torch.Tensor  # (L, B) bool
+    actor_hidden: torch.Tensor   # (B, N, H) GRU state carried into each chunk's first step
+
+
+class RolloutBuffer:
+    """One batch of experience: rollout_length steps of each of n_envs environments."""
+
+    def __init__(self, rollout_length: int, n_envs: int, n_agents: int, obs_dim: int,
+                 state_dim: int, n_actions: int, hidden_size: int):
+        T, E, N = rollout_length, n_envs, n_agents
+        self.rollout_length, self.n_envs, self.n_agents = T, E, N
+        self.obs = torch.zeros(T, E, N, obs_dim)
+        self.state = torch.zeros(T, E, state_dim)
+        self.actions = torch.zeros(T, E, N, dtype=torch.long)
+        self.action_mask = torch.ones(T, E, N, n_actions, dtype=torch.bool)
+        self.log_probs = torch.zeros(T, E, N)
+        self.values = torch.zeros(T, E, N)
+        self.rewards = torch.zeros(T, E, N)
+        self.episode_start = torch.zeros(T, E, dtype=torch.bool)
+        self.terminated = torch.zeros(T, E, dtype=torch.bool)
+        self.truncated = torch.zeros(T, E, dtype=torch.bool)
+        self.final_values = torch.zeros(T, E, N)
+        self.actor_hidden = torch.zeros(T, E, N, hidden_size)
+        self.advantages = torch.zeros(T, E, N)
+        self.returns = torch.zeros(T, E, N)
+        self.step = 0
+
+    def insert(self, *, obs, state, actions, action_mask, log_probs, values, rewards,
+               episode_start, terminated, truncated, final_values, actor_hidden) -> None:
+        """Store one step of every environment (tensors shaped like one time slice)."""
+        t = self.step
+        assert t < self.rollout_length, "buffer full: call compute_returns() and reset()"
+        self.obs[t] = obs
+        self.state[t] = state
+        self.actions[t] = actions
+        self.action_mask[t] = action_mask
+        self.log_probs[t] = log_probs
+        self.values[t] = values
+        self.rewards[t] = rewards
+        self.episode_start[t] = episode_start
+        self.terminated[t] = terminated
+        self.truncated[t] = truncated
+        self.final_values[t] = final_values
+        self.actor_hidden[t] = actor_hidden
+        self.step += 1
+
+    @property
+    def full(self) -> bool:
+        return self.step == self.rollout_length
+
+    def reset(self) -> None:
+        self.step = 0
+
+    def compute_returns(self, last_values: torch.Tensor, gamma: float, gae_lambda: float) -> None:
+        """Advantages and returns; last_values (E, N) = V(state after the last stored step)."""
+        assert self.full, "compute_returns() needs a full buffer"
+        next_values = torch.cat([self.values[1:], last_values.unsqueeze(0)])
+        truncated = self.truncated.unsqueeze(-1)
+        next_values = torch.where(truncated, self.final_values, next_values)
+        result = compute_gae(self.rewards, self.values, next_values,
+                             terminated=self.terminated.unsqueeze(-1),
+                             episode_end=(self.terminated | self.truncated).unsqueeze(-1),
+                             gamma=gamma, gae_lambda=gae_lambda)
+        self.advantages, self.returns = result.advantages, result.returns
+
+    def minibatches(self, chunk_length: int, n_minibatches: int,
+                    generator: torch.Generator) -> Iterator[Minibatch]:
+        """The batch cut into chunks of chunk_length steps per environment, shuffled with
+        `generator` and dealt into n_minibatches groups (sizes differ by at most one)."""
+        T, E = self.rollout_length, self.n_envs
+        assert T % chunk_length == 0, "chunk_length must divide the rollout length"
+        chunks_per_env = T // chunk_length
+        n_chunks = E * chunks_per_env
+        order = torch.randperm(n_chunks, generator=generator)
+        for group in np.array_split(order.numpy(), n_minibatches):
+            group = torch.as_tensor(group)
+            env = group // chunks_per_env
+            start = (group % chunks_per_env) * chunk_length
+            time = start.unsqueeze(0) + torch.arange(chunk_length).unsqueeze(1)   # (L, B)
+            env_tb = env.unsqueeze(0).expand_as(time)
+            yield Minibatch(
+                obs=self.obs[time, env_tb],
+                state=self.state[time, env_tb],
+                actions=self.actions[time, env_tb],
+                action_mask=self.action_mask[time, env_tb],
+                old_log_probs=self.log_probs[time, env_tb],
+                old_values=self.values[time, env_tb],
+                returns=self.returns[time, env_tb],
+                advantages=self.advantages[time, env_tb],
+                episode_start=self.episode_start[time, env_tb],
+                actor_hidden=self.actor_hidden[start, env],
+            )

@@ -1,0 +1,225 @@
+"""Every MAPPO setting in one dataclass, loaded strictly from config/mappo/*.yaml.
+
+Names follow the paper and CleanRL (gamma, gae_lambda, clip_coef, ...). A preset file sets
+any subset of the fields; a key that is not a field, or a value of the wrong type or out of
+range, is a ConfigError whose message is one line naming the file, the key and the problem.
+"""
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Dict, Optional, Tuple, Union
+
+import yaml
+
+from ..env.settings import MASK_MODES
+from ..tasks.config_reader import package_root
+from ..tasks.reward import REWARD_SCHEMA
+
+
+def preset_dir() -> Path:
+    """Directory of the shipped presets (`--preset tuned` means config/mappo/tuned.yaml)."""
+    return package_root() / "config" / "mappo"
+
+
+class ConfigError(ValueError):
+    """A bad settings file or value; str(error) is the one-line message shown to the user."""
+
+
+def setting(default: Any, doc: str, low: Optional[float] = None, high: Optional[float] = None,
+            choices: Optional[Tuple[str, ...]] = None, low_open: bool = False):
+    """A dataclass field with its one-line doc and its allowed range (inclusive unless low_open)."""
+    metadata = {"doc": doc, "low": low, "high": high, "choices": choices, "low_open": low_open}
+    if isinstance(default, dict):
+        return field(default_factory=lambda: dict(default), metadata=metadata)
+    return field(default=default, metadata=metadata)
+
+
+@dataclass(frozen=True)
+class MappoConfig:
+    """MAPPO settings. Defaults are the paper's (Table 7, no action masks, its reward); the
+    `tuned` preset changes what docs/mappo.md measures."""
+
+    # Data collection
+    n_envs: int = setting(8, "environment instances stepped together (the paper's 8 threads)", low=1)
+    total_env_steps: int = setting(70_000, "training budget in decision steps summed over all environments", low=1)
+    batch_size: int = setting(1000, "decision steps collected per update, over all environments", low=1)
+    minibatch_size: int = setting(256, "decision steps per minibatch (rounded to whole chunks)", low=1)
+    chunk_length: int = setting(25, "GRU training sequence length in decision steps; divides batch_size / n_envs", low=1)
+
+    # Environment the run trains on (evaluation should use the same; both are kept in actor.pt)
+    action_mask: str = setting("none", "environment action masks: none (the paper) | finished | logic",
+                               choices=MASK_MODES)
+    noise_profile: str = setting("nominal", "embedded executor noise profile, a name in config/task_embedded.yaml")
+    reward_overrides: Dict[str, Dict[str, float]] = setting(
+        {}, "reward values replaced for training, as in a scenario's <reward>: {section: {key: value}} over config/reward.yaml")
+
+    # Returns and advantages
+    gamma: float = setting(0.98, "discount factor γ", low=0.0, high=1.0)
+    gae_lambda: float = setting(0.95, "GAE λ (not given by the paper; the usual value)", low=0.0, high=1.0)
+    team_reward: bool = setting(True, "train every robot on the mean of all robots' rewards (the paper's team reward) instead of its own")
+    reward_scale: float = setting(1.0, "rewards are multiplied by this before returns are computed", low=0.0, low_open=True)
+
+    # PPO update
+    epochs: int = setting(10, "passes over each batch", low=1)
+    clip_coef: float = setting(0.2, "PPO surrogate clipping ε", low=0.0, low_open=True)
+    value_clip_coef: float = setting(0.2, "clipping of the value change per update (0 = no value clipping)", low=0.0)
+    entropy_coef: float = setting(0.01, "entropy bonus c_e", low=0.0)
+    value_coef: float = setting(5.0, "value loss weight c_v", low=0.0)
+    max_grad_norm: float = setting(10.0, "global gradient-norm clip of actor and critic (each)", low=0.0, low_open=True)
+    learning_rate: float = setting(1e-5, "Adam step size of actor and critic", low=0.0, low_open=True)
+    lr_decay: float = setting(0.95, "learning rate multiplied by this every lr_decay_steps decision steps", low=0.0, high=1.0, low_open=True)
+    lr_decay_steps: int = setting(10_000, "decision steps between learning-rate decays", low=1)
+    adam_eps: float = setting(1e-5, "Adam ε", low=0.0, low_open=True)
+    normalize_advantages: bool = setting(True, "standardise advantages per minibatch")
+    value_norm: bool = setting(True, "learn the critic on running-normalised returns (ValueNorm)")
+    target_kl: float = setting(0.0, "stop the epochs of an update early when approx_kl exceeds this (0 = never)", low=0.0)
+
+    # Networks
+    hidden_size: int = setting(64, "width of the actor's and critic's hidden layers and of the GRU", low=1)
+    critic_layers: int = setting(2, "hidden layers of the critic MLP", low=1)
+    append_agent_id: bool = setting(True, "append a one-hot robot index to each robot's observation")
+
+    # Bookkeeping
+    checkpoint_every: int = setting(10, "updates between checkpoints (one is also written at exit)", low=1)
+    eval_every: int = setting(5, "updates between greedy evaluations (0 = only at the end)", low=0)
+    eval_episodes: int = setting(8, "episodes per greedy evaluation", low=1)
+    log_every: int = setting(1, "updates between progress lines", low=1)
+
+    @property
+    def rollout_length(self) -> int:
+        """Decision steps each environment contributes to one batch."""
+        return self.batch_size // self.n_envs
+
+    @property
+    def n_updates(self) -> int:
+        """Updates in the whole budget (the last batch is completed, never cut)."""
+        return max(1, math.ceil(self.total_env_steps / self.batch_size))
+
+    @property
+    def n_minibatches(self) -> int:
+        """Minibatches per epoch: batch_size / minibatch_size rounded, at most one per chunk."""
+        chunks = self.batch_size // self.chunk_length
+        return max(1, min(chunks, round(self.batch_size / self.minibatch_size)))
+
+
+def _type_name(f: dataclasses.Field) -> str:
+    return f.type if isinstance(f.type, str) else getattr(f.type, "__name__", str(f.type))
+
+
+def _check_value(source: str, f: dataclasses.Field, value: Any) -> Any:
+    """The value converted to the field's type, or a ConfigError naming source and key."""
+    kind = _type_name(f)
+    where = f"{source}: {f.name}"
+    if kind.startswith("Dict"):
+        return _check_reward_overrides(where, value)
+    if kind == "bool":
+        if not isinstance(value, bool):
+            raise ConfigError(f"{where}: expected true or false, got {value!r}")
+        return value
+    if kind == "int":
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ConfigError(f"{where}: expected an integer, got {value!r}")
+    elif kind == "float":
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ConfigError(f"{where}: expected a number, got {value!r}")
+        value = float(value)
+        if not math.isfinite(value):
+            raise ConfigError(f"{where}: expected a finite number, got {value!r}")
+    elif kind == "str":
+        if not isinstance(value, str):
+            raise ConfigError(f"{where}: expected a string, got {value!r}")
+    meta = f.metadata
+    if meta["choices"] is not None and value not in meta["choices"]:
+        raise ConfigError(f"{where}: {value!r} is not one of {', '.join(meta['choices'])}")
+    low, high = meta["low"], meta["high"]
+    if low is not None and (value < low or (meta["low_open"] and value == low)):
+        bound = f"> {low}" if meta["low_open"] else f">= {low}"
+        raise ConfigError(f"{where}: must be {bound}, got {value!r}")
+    if high is not None and value > high:
+        raise ConfigError(f"{where}: must be <= {high}, got {value!r}")
+    return value
+
+
+def _check_reward_overrides(where: str, value: Any) -> Dict[str, Dict[str, float]]:
+    """{section: {key: number}} with the sections and keys of config/reward.yaml."""
+    if not isinstance(value, dict):
+        raise ConfigError(f"{where}: expected a mapping of reward sections, got {value!r}")
+    checked: Dict[str, Dict[str, float]] = {}
+    for section, values in value.items():
+        if section not in REWARD_SCHEMA:
+            raise ConfigError(f"{where}: {section}: unknown reward section (known: {', '.join(REWARD_SCHEMA)})")
+        if not isinstance(values, dict):
+            raise ConfigError(f"{where}: {section}: expected a mapping of keys to numbers, got {values!r}")
+        checked[section] = {}
+        for key, number in values.items():
+            if key not in REWARD_SCHEMA[section]:
+                raise ConfigError(f"{where}: {section}.{key}: unknown key (known: {', '.join(REWARD_SCHEMA[section])})")
+            if isinstance(number, bool) or not isinstance(number, (int, float)) or not math.isfinite(number):
+                raise ConfigError(f"{where}: {section}.{key}: expected a finite number, got {number!r}")
+            checked[section][key] = float(number)
+    return checked
+
+
+def _check_consistency(source: str, config: MappoConfig) -> None:
+    """Relations between settings; each failure names the key that has to change."""
+    if config.batch_size % config.n_envs:
+        raise ConfigError(f"{source}: batch_size: {config.batch_size} is not divisible by n_envs = {config.n_envs}")
+    if config.rollout_length % config.chunk_length:
+        raise ConfigError(f"{source}: chunk_length: {config.chunk_length} does not divide batch_size / n_envs = "
+                          f"{config.rollout_length}")
+
+
+def config_from_dict(values: Dict[str, Any], source: str = "<settings>") -> MappoConfig:
+    """A MappoConfig from a mapping of field names to values, checked key by key."""
+    if not isinstance(values, dict):
+        raise ConfigError(f"{source}: expected a mapping of setting names to values, got {type(values).__name__}")
+    fields = {f.name: f for f in dataclasses.fields(MappoConfig)}
+    checked = {}
+    for key, value in values.items():
+        if key not in fields:
+            close = difflib.get_close_matches(str(key), fields, n=1)
+            hint = f" (did you mean {close[0]}?)" if close else " (docs/mappo.md lists the settings)"
+            raise ConfigError(f"{source}: {key}: unknown setting{hint}")
+        checked[key] = _check_value(source, fields[key], value)
+    config = MappoConfig(**checked)
+    _check_consistency(source, config)
+    return config
+
+
+def load_config(path: Union[str, Path], overrides: Optional[Dict[str, Any]] = None) -> MappoConfig:
+    """The settings in a YAML file (absent keys keep their defaults), then `overrides` on top."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as error:
+        raise ConfigError(f"{path}: cannot read: {error.strerror}") from None
+    try:
+        values = yaml.safe_load(text)
+    except yaml.YAMLError as error:
+        mark = getattr(error, "problem_mark", None)
+        line = f" line {mark.line + 1}" if mark is not None else ""
+        problem = getattr(error, "problem", None) or "invalid YAML"
+        raise ConfigError(f"{path}:{line}: {problem}") from None
+    values = {} if values is None else values
+    if not isinstance(values, dict):
+        raise ConfigError(f"{path}: expected a mapping of setting names to values, got {type(values).__name__}")
+    values = dict(values)
+    values.update(overrides or {})
+    return config_from_dict(values, str(path))
+
+
+def resolve_preset(preset: str) -> Path:
+    """`tuned` / `paper` name a shipped preset; anything else is a path to a YAML file."""
+    candidate = preset_dir() / f"{preset}.yaml"
+    if "/" not in preset and not preset.endswith((".yaml", ".yml")) and candidate.exists():
+        return candidate
+    return Path(preset)
+
+
+def config_to_dict(config: MappoConfig) -> Dict[str, Any]:
+    """Plain mapping of every setting (stored in checkpoints and actor files)."""
+    return dataclasses.asdict(config)

@@ -1,0 +1,195 @@
+"""N instances of a task-allocation environment stepped together, with automatic reset.
+
+Every episode is reset with its own seed, derived from (run seed, environment index, episode
+number), and the joint actions of the running episodes are recorded. A checkpoint therefore
+needs only the episode numbers and those actions: `restore()` resets each environment with
+the same seed and replays the actions, which rebuilds the environments exactly (environments
+are deterministic given reset seed and actions) without pickling them.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Callable, Dict, List, Optional, Sequence
+
+import numpy as np
+
+from ..env.api import REWARD_COMPONENTS, StepOutput, TaskAllocationEnv
+
+
+def episode_seed(run_seed: int, env_index: int, episode: int) -> int:
+    """Reset seed of one episode; independent streams per environment and episode."""
+    return int(np.random.SeedSequence([run_seed, env_index, episode]).generate_state(1)[0])
+
+
+@dataclass
+class EpisodeSummary:
+    """One finished episode, as the logs and plots need it."""
+
+    env_index: int
+    length: int                               # decision steps
+    reward_per_robot: List[float]             # sum of weighted rewards, per robot
+    components: Dict[str, List[float]]        # sum of each unweighted component, per robot
+    terminated: bool                          # all tasks reached (False: timeout / abort)
+    makespan: float                           # episode duration, s
+    collisions: float                         # collision events
+    logic_consistent: bool                    # complete, every task in precedence order
+    robot_tasks: List[List[str]]              # per robot, the task ids it finished, in order
+
+    def as_dict(self) -> Dict[str, Any]:
+        return dict(self.__dict__)
+
+
+@dataclass
+class PoolStep:
+    """Result of stepping every environment once. Rows are environments."""
+
+    obs: np.ndarray              # (E, N, obs_dim) observation to act on next (after auto-reset)
+    state: np.ndarray            # (E, state_dim) global state to act on next
+    action_mask: np.ndarray      # (E, N, A) bool
+    rewards: np.ndarray          # (E, N) weighted rewards of the step just taken
+    terminated: np.ndarray       # (E,) bool: episode ended with all tasks reached
+    truncated: np.ndarray        # (E,) bool: episode ended by timeout or abort
+    final_state: np.ndarray      # (E, state_dim) last state of an ended episode (else = state)
+    finished: List[EpisodeSummary] = field(default_factory=list)
+
+
+def _outcome(final: StepOutput) -> Dict[str, Any]:
+    """Episode figures from the schedule record the environment attaches to its last step."""
+    record = final.info["episode"]
+    return {
+        "makespan": float(record.makespan),
+        "collisions": float(sum(record.collisions)),
+        "logic_consistent": bool(record.logic_consistent),
+        "robot_tasks": [[record.task_ids[t] for t in tasks] for tasks in record.robot_task_lists()],
+    }
+
+
+class _EpisodeTally:
+    """Sums of one running episode."""
+
+    def __init__(self, n_agents: int):
+        self.length = 0
+        self.rewards = np.zeros(n_agents, dtype=np.float64)
+        self.components = {name: np.zeros(n_agents, dtype=np.float64) for name in REWARD_COMPONENTS}
+
+    def add(self, out: StepOutput) -> None:
+        self.length += 1
+        self.rewards += out.rewards
+        for name, values in out.reward_components.items():
+            self.components.setdefault(name, np.zeros_like(self.rewards))
+            self.components[name] += values
+
+
+class EnvPool:
+    """The N environments of a run; `run_seed` fixes every episode of every environment."""
+
+    def __init__(self, make_env: Callable[[], TaskAllocationEnv], n_envs: int, run_seed: int):
+        self.envs = [make_env() for _ in range(n_envs)]
+        first = self.envs[0]
+        self.n_envs = n_envs
+        self.n_agents, self.n_actions = first.n_agents, first.n_actions
+        self.obs_dim, self.state_dim = first.obs_dim, first.state_dim
+        self.run_seed = run_seed
+        self.episode_index = [0] * n_envs
+        self.episode_actions: List[List[List[int]]] = [[] for _ in range(n_envs)]
+        self._tallies = [_EpisodeTally(self.n_agents) for _ in range(n_envs)]
+        self._latest: List[Optional[StepOutput]] = [None] * n_envs
+
+    def _reset(self, i: int) -> StepOutput:
+        out = self.envs[i].reset(seed=episode_seed(self.run_seed, i, self.episode_index[i]))
+        self.episode_actions[i] = []
+        self._tallies[i] = _EpisodeTally(self.n_agents)
+        self._latest[i] = out
+        return out
+
+    def reset(self) -> PoolStep:
+        """Start the first episode of every environment."""
+        for i in range(self.n_envs):
+            self._reset(i)
+        return self._current(np.zeros((self.n_envs, self.n_agents), np.float32),
+                             np.zeros(self.n_envs, bool), np.zeros(self.n_envs, bool), [])
+
+    def _current(self, rewards, terminated, truncated, finished, final_state=None) -> PoolStep:
+        latest = self._latest
+        state = np.stack([o.state for o in latest])
+        return PoolStep(
+            obs=np.stack([o.obs for o in latest]),
+            state=state,
+            action_mask=np.stack([o.action_mask for o in latest]).astype(bool),
+            rewards=rewards, terminated=terminated, truncated=truncated,
+            final_state=state.copy() if final_state is None else final_state,
+            finished=finished,
+        )
+
+    def step(self, actions: np.ndarray) -> PoolStep:
+        """Apply joint actions (E, N); ended episodes are recorded and their env reset."""
+        rewards = np.zeros((self.n_envs, self.n_agents), np.float32)
+        terminated = np.zeros(self.n_envs, bool)
+        truncated = np.zeros(self.n_envs, bool)
+        final_state = np.zeros((self.n_envs, self.state_dim), np.float32)
+        finished: List[EpisodeSummary] = []
+        for i, env in enumerate(self.envs):
+            joint = [int(a) for a in actions[i]]
+            out = env.step(joint)
+            self.episode_actions[i].append(joint)
+            self._tallies[i].add(out)
+            rewards[i] = out.rewards
+            final_state[i] = out.state
+            if out.done or out.truncated:
+                terminated[i], truncated[i] = bool(out.done), not out.done
+                finished.append(self._record(i, out))
+                self.episode_index[i] += 1
+                self._reset(i)
+            else:
+                self._latest[i] = out
+        return self._current(rewards, terminated, truncated, finished, final_state)
+
+    def _record(self, i: int, final: StepOutput) -> EpisodeSummary:
+        tally = self._tallies[i]
+        return EpisodeSummary(env_index=i, length=tally.length,
+                             reward_per_robot=tally.rewards.tolist(),
+                             components={k: v.tolist() for k, v in tally.components.items()},
+                             terminated=bool(final.done), **_outcome(final))
+
+    def snapshot(self) -> Dict[str, Any]:
+        """What restore() needs to rebuild the running episodes."""
+        return {"episode_index": list(self.episode_index),
+                "episode_actions": [list(map(list, acts)) for acts in self.episode_actions]}
+
+    def restore(self, snapshot: Dict[str, Any]) -> PoolStep:
+        """Rebuild the running episodes: reset with their seeds, replay their actions."""
+        self.episode_index = list(snapshot["episode_index"])
+        for i, env in enumerate(self.envs):
+            self._reset(i)
+            for joint in snapshot["episode_actions"][i]:
+                out = env.step(list(joint))
+                if out.done or out.truncated:
+                    raise RuntimeError(f"environment {i}: replaying the checkpoint's actions ended the "
+                                       "episode early; the environment is not deterministic given its seed")
+                self.episode_actions[i].append(list(joint))
+                self._tallies[i].add(out)
+                self._latest[i] = out
+        return self._current(np.zeros((self.n_envs, self.n_agents), np.float32),
+                             np.zeros(self.n_envs, bool), np.zeros(self.n_envs, bool), [])
+
+
+def evaluate_greedy(policy_act: Callable, make_env: Callable[[], TaskAllocationEnv],
+                    seeds: Sequence[int]) -> List[EpisodeSummary]:
+    """Run one episode per seed with a greedy policy; policy_act(obs, mask, hidden) -> (a, h)
+    with hidden None at the start of an episode."""
+    env = make_env()
+    records = []
+    for seed in seeds:
+        out = env.reset(seed=int(seed))
+        tally = _EpisodeTally(env.n_agents)
+        hidden = None
+        while True:
+            actions, hidden = policy_act(out.obs, out.action_mask, hidden)
+            out = env.step([int(a) for a in actions])
+            tally.add(out)
+            if out.done or out.truncated:
+                break
+        records.append(EpisodeSummary(env_index=-1, length=tally.length, reward_per_robot=tally.rewards.tolist(),
+                                     components={k: v.tolist() for k, v in tally.components.items()},
+                                     terminated=bool(out.done), **_outcome(out)))
+    return records

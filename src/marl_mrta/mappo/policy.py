@@ -1,0 +1,120 @@
+"""The trained actor on its own: save it, load it, act with it (evaluation, per-robot nodes).
+
+An actor file holds the actor's weights and everything needed to rebuild it (dimensions and
+the settings that shape its input), nothing of the critic or optimisers, so that execution
+stays decentralised: each robot needs only this file and its own observation.
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any, Dict, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import torch
+
+from .networks import Actor, masked_logits, sample_actions
+
+ACTOR_FORMAT = "marl_mrta.mappo.actor/1"
+
+
+class PolicyFileError(ValueError):
+    """An unreadable or foreign actor file; str(error) is one line naming the file."""
+
+
+def atomic_torch_save(obj: Any, path: Union[str, Path]) -> None:
+    """Write via a temporary file and os.replace, so a kill never leaves a half-written file."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".tmp")
+    with open(tmp, "wb") as handle:
+        torch.save(obj, handle)
+        handle.flush()
+        os.fsync(handle.fileno())
+    os.replace(tmp, path)
+
+
+def save_actor(path: Union[str, Path], actor: Actor, *, obs_dim: int, n_agents: int,
+               append_agent_id: bool, settings: Dict[str, Any], scenario: str) -> None:
+    """Write the standalone actor file (atomically)."""
+    atomic_torch_save({
+        "format": ACTOR_FORMAT,
+        "weights": actor.state_dict(),
+        "obs_dim": obs_dim,
+        "n_agents": n_agents,
+        "n_actions": actor.n_actions,
+        "hidden_size": actor.hidden_size,
+        "append_agent_id": append_agent_id,
+        "settings": settings,
+        "scenario": scenario,
+    }, path)
+
+
+class ActorPolicy:
+    """Acts for any subset of robots from their own observations; carries no global state."""
+
+    def __init__(self, actor: Actor, *, obs_dim: int, n_agents: int, append_agent_id: bool,
+                 settings: Dict[str, Any], seed: int = 0, source: str = ""):
+        self.actor = actor.eval()
+        self.settings = dict(settings)
+        #: The environment's action-mask mode during training; evaluate with the same one.
+        self.action_mask: str = self.settings.get("action_mask", "none")
+        self.obs_dim = obs_dim
+        self.n_agents = n_agents
+        self.n_actions = actor.n_actions
+        self.append_agent_id = append_agent_id
+        self.source = source
+        self.generator = torch.Generator().manual_seed(seed)
+
+    def initial_hidden(self, n_agents: int) -> torch.Tensor:
+        """Recurrent state for the first decision of an episode, one row per robot."""
+        return self.actor.initial_hidden(n_agents)
+
+    @torch.no_grad()
+    def act(self, obs: np.ndarray, action_mask: Optional[np.ndarray], hidden: torch.Tensor,
+            deterministic: bool = True, agent_ids: Optional[Sequence[int]] = None) -> Tuple[np.ndarray, torch.Tensor]:
+        """One decision. obs (k, obs_dim) for robots agent_ids (default 0..k-1), action_mask
+        (k, n_actions) bool or None, hidden (k, H) from initial_hidden() or the last call.
+        Returns actions (k,) int64 (greedy when deterministic) and the new hidden state."""
+        obs_t = torch.as_tensor(np.asarray(obs, dtype=np.float32))
+        if obs_t.ndim != 2 or obs_t.shape[1] != self.obs_dim:
+            raise ValueError(f"{self.source}: observation shape {tuple(obs_t.shape)}, the actor expects (k, {self.obs_dim})")
+        ids = list(range(obs_t.shape[0])) if agent_ids is None else list(agent_ids)
+        if self.append_agent_id:
+            if any(i < 0 or i >= self.n_agents for i in ids):
+                raise ValueError(f"{self.source}: robot index out of range 0..{self.n_agents - 1}: {ids}")
+            obs_t = torch.cat([obs_t, torch.eye(self.n_agents)[ids]], dim=-1)
+        mask_t = None if action_mask is None else torch.as_tensor(np.asarray(action_mask, dtype=bool))
+        k = obs_t.shape[0]
+        out = self.actor(obs_t.unsqueeze(0), hidden, torch.zeros(1, k, dtype=torch.bool),
+                         None if mask_t is None else mask_t.unsqueeze(0))
+        logits = out.logits[0]
+        if deterministic:
+            actions = masked_logits(logits, mask_t).argmax(-1)
+        else:
+            actions = sample_actions(logits, self.generator)
+        return actions.numpy().astype(np.int64), out.hidden
+
+
+def load_policy(path: Union[str, Path], seed: int = 0) -> ActorPolicy:
+    """The actor in an actor file (or in a full training checkpoint) ready to act."""
+    path = Path(path)
+    try:
+        data = torch.load(path, map_location="cpu", weights_only=True)
+    except FileNotFoundError:
+        raise PolicyFileError(f"{path}: no such file") from None
+    except Exception as error:  # torch raises many types for a foreign or corrupt file
+        raise PolicyFileError(f"{path}: not a readable actor file ({type(error).__name__})") from None
+    if isinstance(data, dict) and "actor_file" in data:   # a training checkpoint embeds one
+        data = data["actor_file"]
+    if not isinstance(data, dict) or data.get("format") != ACTOR_FORMAT:
+        raise PolicyFileError(f"{path}: format: not a {ACTOR_FORMAT} actor file")
+    actor = Actor(data["obs_dim"] + (data["n_agents"] if data["append_agent_id"] else 0),
+                  data["n_actions"], data["hidden_size"])
+    try:
+        actor.load_state_dict(data["weights"])
+    except RuntimeError:
+        raise PolicyFileError(f"{path}: weights: do not match the stored dimensions") from None
+    return ActorPolicy(actor, obs_dim=data["obs_dim"], n_agents=data["n_agents"],
+                       append_agent_id=data["append_agent_id"], settings=data["settings"], seed=seed,
+                       source=str(path))

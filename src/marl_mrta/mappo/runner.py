@@ -1,0 +1,384 @@
+"""The training loop: collect → insert → compute → train → log, with checkpoints and resume.
+
+One Runner owns a run directory:
+  checkpoint.pt  everything to continue bit-identically (networks, optimisers, ValueNorm, RNG
+                 states, counters, running episodes as seeds + actions, history)
+  actor.pt       the standalone actor (load with marl_mrta.mappo.policy.load_policy)
+  tb/            TensorBoard scalars
+  history.json   per-episode and per-update records; plots/*.png the paper's figures
+Both .pt files are written atomically. SIGINT/SIGTERM end the run at the next update boundary
+with a checkpoint; a run killed harder resumes from its last periodic checkpoint.
+"""
+from __future__ import annotations
+
+import json
+import math
+import random
+import signal
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Dict, List, Optional, Sequence
+
+import numpy as np
+import torch
+
+from ..env.api import TaskAllocationEnv
+from .buffer import RolloutBuffer
+from .config import MappoConfig, config_from_dict, config_to_dict
+from .env_pool import EnvPool, EpisodeSummary, PoolStep, episode_seed, evaluate_greedy
+from .networks import log_prob_and_entropy, sample_actions
+from .policy import ActorPolicy, atomic_torch_save, save_actor
+from .trainer import MappoTrainer
+
+CHECKPOINT_FORMAT = "marl_mrta.mappo.checkpoint/1"
+#: Seed stream of greedy evaluations, apart from every training episode's.
+EVAL_STREAM = 1_000_003
+
+
+class RunError(RuntimeError):
+    """A run that cannot start or resume; str(error) is one line naming the file."""
+
+
+def make_deterministic(seed: int) -> None:
+    """Seed python, numpy and torch; one CPU thread and deterministic kernels, so a seeded
+    run is repeatable bit for bit (and small networks run faster on one thread)."""
+    random.seed(seed)
+    np.random.seed(seed % 2**32)
+    torch.manual_seed(seed)
+    torch.set_num_threads(1)
+    torch.use_deterministic_algorithms(True)
+
+
+def _rng_states() -> Dict[str, Any]:
+    np_state = np.random.get_state()
+    return {"python": random.getstate(),
+            "numpy": [np_state[0], torch.from_numpy(np_state[1].astype(np.int64)), *map(float, np_state[2:])],
+            "torch": torch.get_rng_state()}
+
+
+def _set_rng_states(states: Dict[str, Any]) -> None:
+    python = states["python"]
+    random.setstate((python[0], tuple(python[1]), python[2]))
+    kind, key, pos, has_gauss, cached = states["numpy"]
+    np.random.set_state((kind, key.numpy().astype(np.uint32), int(pos), int(has_gauss), float(cached)))
+    torch.set_rng_state(states["torch"])
+
+
+@dataclass
+class RunSummary:
+    """What a finished (or stopped) run reports."""
+
+    updates: int
+    env_steps: int
+    episodes: int
+    wall_time: float                      # seconds, summed over resumes
+    greedy_makespan: float                # last greedy evaluation, s (nan if none)
+    time_to_target: Optional[float]       # wall time until greedy makespan ≤ target, s
+    steps_to_target: Optional[int]
+    stopped_early: bool
+    last_metrics: Dict[str, float] = field(default_factory=dict)
+
+
+class Runner:
+    def __init__(self, config: MappoConfig, make_env: Callable[[], TaskAllocationEnv], *,
+                 scenario: str, seed: int, out_dir: Path, log: Callable[[str], None] = print,
+                 target_makespan: Optional[float] = None, stop_at_target: bool = False,
+                 tensorboard: bool = True, plots: bool = True):
+        """target_makespan: greedy makespan counted as "policy found" (time_to_target);
+        stop_at_target ends the run there (benchmarks)."""
+        self.config = config
+        self.make_env = make_env
+        self.scenario = scenario
+        self.seed = seed
+        self.out_dir = Path(out_dir)
+        self.log = log
+        self.target_makespan = target_makespan
+        self.stop_at_target = stop_at_target
+        self.want_tensorboard = tensorboard
+        self.want_plots = plots
+        make_deterministic(seed)
+
+        self.pool = EnvPool(make_env, config.n_envs, seed)
+        self.n_agents = self.pool.n_agents
+        self.trainer = MappoTrainer(config, self.pool.obs_dim, self.pool.state_dim, self.n_agents, self.pool.n_actions)
+        self.buffer = RolloutBuffer(config.rollout_length, config.n_envs, self.n_agents, self.trainer.actor_obs_dim,
+                                    self.pool.state_dim, self.pool.n_actions, config.hidden_size)
+        self.action_generator = torch.Generator().manual_seed(seed)
+        self.shuffle_generator = torch.Generator().manual_seed(seed + 1)
+        self.eval_seeds = [episode_seed(seed, EVAL_STREAM, k) for k in range(config.eval_episodes)]
+
+        self.update = 0
+        self.env_steps = 0
+        self.episodes = 0
+        self.wall_time = 0.0
+        self.time_to_target: Optional[float] = None
+        self.steps_to_target: Optional[int] = None
+        self.history: Dict[str, List[Dict[str, Any]]] = {"episodes": [], "updates": [], "evaluations": []}
+        self.current: Optional[PoolStep] = None
+        self.hidden = torch.zeros(config.n_envs, self.n_agents, config.hidden_size)
+        self.episode_start = torch.ones(config.n_envs, dtype=torch.bool)
+        self.stop_requested = False
+        self._writer = None
+
+    # ---------------------------------------------------------------- paths
+    @property
+    def checkpoint_path(self) -> Path:
+        return self.out_dir / "checkpoint.pt"
+
+    @property
+    def actor_path(self) -> Path:
+        return self.out_dir / "actor.pt"
+
+    # ---------------------------------------------------------------- start / resume
+    def start(self) -> None:
+        """A fresh run in an out_dir without a checkpoint."""
+        if self.checkpoint_path.exists():
+            raise RunError(f"{self.checkpoint_path}: a run exists here; resume it or choose another output directory")
+        self.current = self.pool.reset()
+
+    @staticmethod
+    def read_checkpoint(path: Path) -> Dict[str, Any]:
+        try:
+            data = torch.load(path, map_location="cpu", weights_only=True)
+        except FileNotFoundError:
+            raise RunError(f"{path}: no checkpoint to resume") from None
+        except Exception as error:
+            raise RunError(f"{path}: not a readable checkpoint ({type(error).__name__})") from None
+        if not isinstance(data, dict) or data.get("format") != CHECKPOINT_FORMAT:
+            raise RunError(f"{path}: format: not a {CHECKPOINT_FORMAT} file")
+        return data
+
+    @classmethod
+    def resume(cls, out_dir: Path, make_env: Callable[[], TaskAllocationEnv], **kwargs) -> "Runner":
+        """The run stored in out_dir/checkpoint.pt, ready to continue with its next update."""
+        data = cls.read_checkpoint(Path(out_dir) / "checkpoint.pt")
+        config = config_from_dict(data["config"], f"{out_dir}/checkpoint.pt")
+        runner = cls(config, make_env, scenario=data["scenario"], seed=data["seed"], out_dir=Path(out_dir), **kwargs)
+        runner.load(data)
+        return runner
+
+    def load(self, data: Dict[str, Any]) -> None:
+        self.trainer.load_state_dict(data["trainer"])
+        counters = data["counters"]
+        self.update, self.env_steps = counters["update"], counters["env_steps"]
+        self.episodes, self.wall_time = counters["episodes"], counters["wall_time"]
+        self.time_to_target, self.steps_to_target = counters["time_to_target"], counters["steps_to_target"]
+        self.history = data["history"]
+        self.hidden = data["hidden"].clone()
+        self.episode_start = data["episode_start"].clone()
+        self.current = self.pool.restore(data["env_pool"])
+        self.action_generator.set_state(data["rng"]["actions"])
+        self.shuffle_generator.set_state(data["rng"]["shuffle"])
+        _set_rng_states(data["rng"]["global"])
+
+    def save_checkpoint(self) -> None:
+        """Checkpoint and standalone actor, both written atomically."""
+        data = {
+            "format": CHECKPOINT_FORMAT,
+            "config": config_to_dict(self.config),
+            "scenario": self.scenario,
+            "seed": self.seed,
+            "trainer": self.trainer.state_dict(),
+            "counters": {"update": self.update, "env_steps": self.env_steps, "episodes": self.episodes,
+                         "wall_time": self.wall_time, "time_to_target": self.time_to_target,
+                         "steps_to_target": self.steps_to_target},
+            "rng": {"actions": self.action_generator.get_state(), "shuffle": self.shuffle_generator.get_state(),
+                    "global": _rng_states()},
+            "env_pool": self.pool.snapshot(),
+            "hidden": self.hidden.clone(),
+            "episode_start": self.episode_start.clone(),
+            "history": self.history,
+        }
+        atomic_torch_save(data, self.checkpoint_path)
+        save_actor(self.actor_path, self.trainer.actor, obs_dim=self.pool.obs_dim, n_agents=self.n_agents,
+                   append_agent_id=self.config.append_agent_id, settings=config_to_dict(self.config),
+                   scenario=self.scenario)
+
+    # ---------------------------------------------------------------- the loop
+    @torch.no_grad()
+    def collect(self) -> List[EpisodeSummary]:
+        """Fill the buffer with rollout_length steps of every environment."""
+        c, E, N = self.config, self.config.n_envs, self.n_agents
+        finished: List[EpisodeSummary] = []
+        self.buffer.reset()
+        while not self.buffer.full:
+            step = self.current
+            obs = self.trainer.actor_obs(torch.from_numpy(step.obs).float())          # (E, N, D)
+            state = torch.from_numpy(step.state).float()
+            mask = torch.from_numpy(step.action_mask)
+            out = self.trainer.actor(obs.reshape(1, E * N, -1), self.hidden.reshape(E * N, -1),
+                                     self.episode_start.repeat_interleave(N).unsqueeze(0),
+                                     mask.reshape(1, E * N, -1))
+            logits = out.logits[0]
+            actions = sample_actions(logits, self.action_generator)
+            log_probs, _ = log_prob_and_entropy(logits, actions)
+            values = self.trainer.values(state)
+
+            result = self.pool.step(actions.reshape(E, N).numpy())
+            rewards = torch.from_numpy(result.rewards).float()
+            if c.team_reward:
+                rewards = rewards.mean(dim=1, keepdim=True).expand(E, N)
+            terminated = torch.from_numpy(result.terminated)
+            truncated = torch.from_numpy(result.truncated)
+            final_values = torch.zeros(E, N)
+            if result.truncated.any():
+                final_values = self.trainer.values(torch.from_numpy(result.final_state).float())
+            self.buffer.insert(obs=obs, state=state, actions=actions.reshape(E, N), action_mask=mask,
+                               log_probs=log_probs.reshape(E, N), values=values,
+                               rewards=rewards * c.reward_scale, episode_start=self.episode_start,
+                               terminated=terminated, truncated=truncated, final_values=final_values,
+                               actor_hidden=self.hidden)
+            self.hidden = out.hidden.reshape(E, N, -1)
+            self.episode_start = terminated | truncated
+            self.current = result
+            self.env_steps += E
+            finished.extend(result.finished)
+        return finished
+
+    @torch.no_grad()
+    def compute(self) -> None:
+        last_values = self.trainer.values(torch.from_numpy(self.current.state).float())
+        self.buffer.compute_returns(last_values, self.config.gamma, self.config.gae_lambda)
+
+    def train_one_update(self) -> Dict[str, float]:
+        """collect → compute → train: one PPO update (the unit of checkpoints and resume)."""
+        started = time.perf_counter()
+        finished = self.collect()
+        collected = time.perf_counter()
+        self.compute()
+        metrics = self.trainer.train(self.buffer, self.env_steps, self.shuffle_generator)
+        done = time.perf_counter()
+        self.update += 1
+        self.episodes += len(finished)
+        self.wall_time += done - started
+        metrics.update(update=self.update, env_steps=self.env_steps, episodes=self.episodes,
+                       wall_time=self.wall_time, collect_seconds=collected - started, train_seconds=done - collected)
+        self.history["episodes"].extend(r.as_dict() for r in finished)
+        self.history["updates"].append(metrics)
+        return metrics
+
+    def greedy_policy(self) -> ActorPolicy:
+        return ActorPolicy(self.trainer.actor, obs_dim=self.pool.obs_dim, n_agents=self.n_agents,
+                           append_agent_id=self.config.append_agent_id, settings=config_to_dict(self.config))
+
+    def evaluate(self) -> Dict[str, float]:
+        """Greedy policy on fixed evaluation seeds (separate env, no training RNG used)."""
+        started = time.perf_counter()
+        policy = self.greedy_policy()
+
+        def act(obs, mask, hidden):
+            hidden = policy.initial_hidden(self.n_agents) if hidden is None else hidden
+            return policy.act(obs, mask, hidden, deterministic=True)
+
+        records = evaluate_greedy(act, self.make_env, self.eval_seeds)
+        self.trainer.actor.train()
+        self.wall_time += time.perf_counter() - started
+        makespans = [r.makespan if r.terminated else math.inf for r in records]
+        result = {
+            "update": self.update, "env_steps": self.env_steps, "wall_time": self.wall_time,
+            "makespan": float(np.mean(makespans)),
+            "completed": float(np.mean([r.terminated for r in records])),
+            "reward_per_robot": float(np.mean([np.mean(r.reward_per_robot) for r in records])),
+            "collisions": float(np.mean([r.collisions for r in records])),
+        }
+        self.history["evaluations"].append(result)
+        if (self.target_makespan is not None and self.time_to_target is None
+                and result["makespan"] <= self.target_makespan):
+            self.time_to_target, self.steps_to_target = self.wall_time, self.env_steps
+        return result
+
+    # ---------------------------------------------------------------- logging
+    def _tensorboard(self):
+        if self._writer is None and self.want_tensorboard:
+            from torch.utils.tensorboard import SummaryWriter
+            self._writer = SummaryWriter(str(self.out_dir / "tb"), purge_step=self.env_steps or None)
+        return self._writer
+
+    def _write_scalars(self, metrics: Dict[str, float], finished: Sequence[Dict[str, Any]],
+                       evaluation: Optional[Dict[str, float]]) -> None:
+        writer = self._tensorboard()
+        if writer is None:
+            return
+        step = self.env_steps
+        for key in ("loss", "policy_loss", "value_loss", "entropy", "approx_kl", "clipfrac",
+                    "explained_variance", "grad_norm", "critic_grad_norm", "learning_rate"):
+            writer.add_scalar(f"train/{key}", metrics[key], step)
+        if finished:
+            writer.add_scalar("episode/makespan", np.nanmean([r["makespan"] for r in finished]), step)
+            writer.add_scalar("episode/reward_per_robot", np.mean([np.mean(r["reward_per_robot"]) for r in finished]), step)
+            writer.add_scalar("episode/collisions", np.mean([r["collisions"] for r in finished]), step)
+            writer.add_scalar("episode/length", np.mean([r["length"] for r in finished]), step)
+            for name in finished[0]["components"]:
+                writer.add_scalar(f"reward_components/{name}",
+                                  np.mean([np.mean(r["components"][name]) for r in finished]), step)
+        if evaluation is not None:
+            writer.add_scalar("eval/makespan", evaluation["makespan"], step)
+            writer.add_scalar("eval/completed", evaluation["completed"], step)
+
+    def _progress_line(self, metrics: Dict[str, float], session_start: float, session_steps: int,
+                       evaluation: Optional[Dict[str, float]]) -> str:
+        recent = [r for r in self.history["episodes"][-100:] if r["terminated"]]
+        makespan = f"{np.mean([r['makespan'] for r in recent]):.1f} s" if recent else "- (none completed)"
+        elapsed = time.perf_counter() - session_start
+        rate = (self.env_steps - session_steps) / max(elapsed, 1e-9)
+        remaining = max(0, self.config.n_updates * self.config.batch_size - self.env_steps)
+        eta = time.strftime("%H:%M:%S", time.gmtime(remaining / max(rate, 1e-9)))
+        greedy = f" | greedy {evaluation['makespan']:.1f} s" if evaluation is not None else ""
+        return (f"update {self.update}/{self.config.n_updates} | episodes {self.episodes} | "
+                f"steps {self.env_steps} | {rate:.0f} steps/s | makespan {makespan}{greedy} | "
+                f"loss {metrics['loss']:.3f} | entropy {metrics['entropy']:.2f} | ETA {eta}")
+
+    # ---------------------------------------------------------------- whole run
+    def _handle_stop_signal(self, signum, frame) -> None:
+        if self.stop_requested:
+            raise KeyboardInterrupt
+        self.stop_requested = True
+        self.log(f"signal {signum}: stopping after this update (checkpoint follows)")
+
+    def run(self) -> RunSummary:
+        """Train until the budget is spent (or a stop signal / the target), then checkpoint,
+        write the actor, history and plots."""
+        self.out_dir.mkdir(parents=True, exist_ok=True)
+        c = self.config
+        previous = {}
+        if threading.current_thread() is threading.main_thread():
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                previous[sig] = signal.signal(sig, self._handle_stop_signal)
+        session_start, session_steps = time.perf_counter(), self.env_steps
+        metrics: Dict[str, float] = {}
+        reached = False
+        try:
+            while self.update < c.n_updates and not self.stop_requested and not reached:
+                n_episodes = len(self.history["episodes"])
+                metrics = self.train_one_update()
+                evaluation = None
+                if (c.eval_every and self.update % c.eval_every == 0) or self.update == c.n_updates:
+                    evaluation = self.evaluate()
+                    reached = self.stop_at_target and self.time_to_target is not None
+                self._write_scalars(metrics, self.history["episodes"][n_episodes:], evaluation)
+                if self.update % c.log_every == 0 or evaluation is not None:
+                    self.log(self._progress_line(metrics, session_start, session_steps, evaluation))
+                if self.update % c.checkpoint_every == 0:
+                    self.save_checkpoint()
+        finally:
+            for sig, handler in previous.items():
+                signal.signal(sig, handler)
+        self.save_checkpoint()
+        self.finish()
+        last_eval = self.history["evaluations"][-1]["makespan"] if self.history["evaluations"] else float("nan")
+        return RunSummary(updates=self.update, env_steps=self.env_steps, episodes=self.episodes,
+                          wall_time=self.wall_time, greedy_makespan=last_eval, time_to_target=self.time_to_target,
+                          steps_to_target=self.steps_to_target, stopped_early=self.update < c.n_updates,
+                          last_metrics=metrics)
+
+    def finish(self) -> None:
+        """history.json and the plots; closes TensorBoard."""
+        (self.out_dir / "history.json").write_text(json.dumps(self.history, allow_nan=True))
+        if self._writer is not None:
+            self._writer.close()
+            self._writer = None
+        if self.want_plots:
+            from .plots import write_plots
+            write_plots(self.history, self.out_dir / "plots", self.n_agents, self.target_makespan)
