@@ -1,1 +1,60 @@
 # Navigation: ROS-free cores (costmap, global planner, DWA) + drop-in nodes (map_server, move_base, localisation).
+#
+# marl_mrta_nav_core knows nothing of ROS: its gtests run without a roscore. The nodes in
+# src/nav/nodes/ are thin shells around it, installed under the stock executable names.
+add_library(marl_mrta_nav_core
+  src/nav/costmap_grid.cpp
+  src/nav/footprint.cpp
+  src/nav/param_tree.cpp
+  src/nav/layered_costmap.cpp
+  src/nav/static_layer.cpp
+  src/nav/obstacle_layer.cpp
+  src/nav/inflation_layer.cpp
+  src/nav/costmap_config.cpp
+  src/nav/navfn_planner.cpp
+  src/nav/dwa_planner.cpp
+  src/nav/local_controller.cpp
+  src/nav/move_base_config.cpp
+  src/nav/move_base_core.cpp
+)
+target_link_libraries(marl_mrta_nav_core marl_mrta_map ${YAML_CPP_LIBRARIES})
+
+# ROS glue shared by the nodes (parameter tree conversion, message conversions).
+add_library(marl_mrta_nav_ros src/nav/nodes/ros_conversions.cpp)
+target_link_libraries(marl_mrta_nav_ros marl_mrta_nav_core ${catkin_LIBRARIES})
+add_dependencies(marl_mrta_nav_ros ${PROJECT_NAME}_generate_messages_cpp ${catkin_EXPORTED_TARGETS})
+
+# Same executable names as the stock nodes, so launch files only change the package.
+foreach(node map_server move_base fake_localization)
+  add_executable(nav_${node} src/nav/nodes/${node}_node.cpp)
+  set_target_properties(nav_${node} PROPERTIES OUTPUT_NAME ${node})
+  target_link_libraries(nav_${node} marl_mrta_nav_ros marl_mrta_nav_core ${catkin_LIBRARIES})
+  add_dependencies(nav_${node} ${PROJECT_NAME}_generate_messages_cpp ${catkin_EXPORTED_TARGETS})
+  install(TARGETS nav_${node} RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
+endforeach()
+target_sources(nav_move_base PRIVATE src/nav/nodes/move_base_ros.cpp)
+
+# Speed of the cores alone (scripts/bench_nav runs it).
+add_executable(bench_nav_core src/nav/bench_nav_core.cpp)
+target_link_libraries(bench_nav_core marl_mrta_nav_core)
+
+if(CATKIN_ENABLE_TESTING)
+  if(NOT DEFINED MARL_MRTA_GTEST_MAIN)
+    if(TARGET GTest::gtest_main)
+      set(MARL_MRTA_GTEST_MAIN GTest::gtest_main)
+    elseif(TARGET gtest_main)
+      set(MARL_MRTA_GTEST_MAIN gtest_main)
+    endif()
+  endif()
+  catkin_add_gtest(test_nav_core
+    test/gtest/nav/test_costmap.cpp
+    test/gtest/nav/test_navfn.cpp
+    test/gtest/nav/test_dwa.cpp
+    test/gtest/nav/test_nav_params.cpp
+    test/gtest/nav/test_move_base_core.cpp
+    WORKING_DIRECTORY ${PROJECT_SOURCE_DIR})
+  if(TARGET test_nav_core)
+    target_compile_definitions(test_nav_core PRIVATE MARL_MRTA_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
+    target_link_libraries(test_nav_core marl_mrta_nav_core ${MARL_MRTA_GTEST_MAIN})
+  endif()
+endif()

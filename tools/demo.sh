@@ -10,13 +10,16 @@ out=${OUT:-$here/results/demo}
 mkdir -p "$out"
 
 echo "== 1/3 simulator: scripted route, headless, lock-step"
-roslaunch --wait-timeout=0 marl_mrta sim_demo.launch output:="$out/sim_demo.json" 2>&1 | grep -v -E '^\s*$|^(started|process|logging|setting|Checking|Done checking|NODES|SUMMARY|PARAMETERS| \* |  /|ROS_MASTER|ROS_IP|auto-starting|core service|\[master\]|========)' || true
+roslaunch marl_mrta sim_demo.launch output:="$out/sim_demo.json" 2>&1 | grep -v -E '^\s*$|^(started|process|logging|setting|Checking|Done checking|NODES|SUMMARY|PARAMETERS| \* |  /|ROS_MASTER|ROS_IP|auto-starting|core service|\[master\]|========)' || true
 test -s "$out/sim_demo.json" || { echo "demo: the simulator demo wrote no figures" >&2; exit 1; }
 
 echo "== 2/3 MAPPO training (embedded executor, preset tuned)"
 rosrun marl_mrta train --scenario "$scenario" --preset tuned --seed 0 --out "$out/train"
 
-echo "== 3/3 evaluation: learned policy vs random, GA, auction, exact"
-rosrun marl_mrta evaluate --method random,ga,auction,exact,policy --policy "$out/train/actor.pt" \
-  --scenario "$scenario" --episodes 20 --seed 0 --out "$out/evaluate.json"
+echo "== 3/3 evaluation: random, GA, auction, exact, then the learned policy (with the masks it was trained with)"
+rosrun marl_mrta evaluate --method random,ga,auction,exact --scenario "$scenario" --episodes 20 --seed 0 \
+  --quiet --out "$out/evaluate_baselines.json"
+mask=$(python3 -c "from marl_mrta.mappo.policy import load_policy; print(load_policy('$out/train/actor.pt').action_mask)")
+rosrun marl_mrta evaluate --method policy --policy "$out/train/actor.pt" --mask "$mask" --scenario "$scenario" \
+  --episodes 20 --seed 0 --quiet --out "$out/evaluate_policy.json"
 echo "demo: results in $out"

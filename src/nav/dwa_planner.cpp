@@ -1,0 +1,439 @@
+#include "marl_mrta/nav/dwa_planner.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace marl_mrta {
+namespace nav {
+namespace {
+
+// Evenly spaced samples from min to max (both included); 0 is inserted when the range
+// crosses it, so that "stop this axis" is always a candidate (base_local_planner's VelocityIterator).
+std::vector<double> sampleRange(double min, double max, int count) {
+  std::vector<double> samples;
+  if (min == max) {
+    samples.push_back(min);
+    return samples;
+  }
+  count = std::max(2, count);
+  const double step = (max - min) / (count - 1);
+  double next = min;
+  for (int j = 0; j < count - 1; ++j) {
+    const double current = next;
+    next += step;
+    samples.push_back(current);
+    if (current < 0.0 && next > 0.0) samples.push_back(0.0);
+  }
+  samples.push_back(max);
+  return samples;
+}
+
+bool isBlocking(uint8_t cost) {
+  return cost == kLethalObstacle || cost == kInscribedInflated || cost == kNoInformation;
+}
+
+}  // namespace
+
+// ----------------------------------------------------------------------------- MapGrid
+
+void MapGrid::reset(unsigned size_x, unsigned size_y) {
+  size_x_ = size_x;
+  size_y_ = size_y;
+  target_dist_.assign(static_cast<size_t>(size_x) * size_y, unreachableCellCosts());
+  marked_.assign(static_cast<size_t>(size_x) * size_y, 0);
+}
+
+std::vector<Pose2D> adjustPlanResolution(const std::vector<Pose2D>& plan, double resolution) {
+  std::vector<Pose2D> out;
+  if (plan.empty()) return out;
+  out.push_back(plan.front());
+  const double min_sq = resolution * resolution;
+  for (size_t i = 1; i < plan.size(); ++i) {
+    const Pose2D& last = plan[i - 1];
+    const double sq = (plan[i].x - last.x) * (plan[i].x - last.x) + (plan[i].y - last.y) * (plan[i].y - last.y);
+    if (sq > min_sq) {
+      const int steps = static_cast<int>(std::ceil(std::sqrt(sq) / resolution));
+      for (int j = 1; j < steps; ++j) {
+        out.push_back({last.x + j * (plan[i].x - last.x) / steps, last.y + j * (plan[i].y - last.y) / steps,
+                       plan[i].yaw});
+      }
+    }
+    out.push_back(plan[i]);
+  }
+  return out;
+}
+
+void MapGrid::propagate(const CostGrid& costmap, std::vector<unsigned>& queue) {
+  // Breadth first over 4 neighbours: the distance is a count of cells.
+  for (size_t head = 0; head < queue.size(); ++head) {
+    const unsigned current = queue[head];
+    const unsigned cx = current % size_x_, cy = current / size_x_;
+    const double next_dist = target_dist_[current] + 1.0;
+    auto visit = [&](unsigned check) {
+      if (marked_[check]) return;
+      marked_[check] = 1;
+      if (isBlocking(costmap.cells()[check])) {
+        target_dist_[check] = obstacleCosts();
+        return;
+      }
+      if (next_dist < target_dist_[check]) target_dist_[check] = next_dist;
+      queue.push_back(check);
+    };
+    if (cx > 0) visit(current - 1);
+    if (cx + 1 < size_x_) visit(current + 1);
+    if (cy > 0) visit(current - size_x_);
+    if (cy + 1 < size_y_) visit(current + size_x_);
+  }
+}
+
+void MapGrid::setTargetCells(const CostGrid& costmap, const std::vector<Pose2D>& plan) {
+  reset(costmap.sizeX(), costmap.sizeY());
+  std::vector<unsigned> queue;
+  bool started = false;
+  for (const Pose2D& p : adjustPlanResolution(plan, costmap.resolution())) {
+    unsigned mx, my;
+    if (costmap.worldToMap(p.x, p.y, mx, my) && costmap.cost(mx, my) != kNoInformation) {
+      const unsigned index = costmap.index(mx, my);
+      target_dist_[index] = 0.0;
+      marked_[index] = 1;
+      queue.push_back(index);
+      started = true;
+    } else if (started) {
+      break;  // the plan left the local map
+    }
+  }
+  if (started) propagate(costmap, queue);
+}
+
+void MapGrid::setLocalGoal(const CostGrid& costmap, const std::vector<Pose2D>& plan) {
+  reset(costmap.sizeX(), costmap.sizeY());
+  bool started = false;
+  unsigned goal_index = 0;
+  for (const Pose2D& p : adjustPlanResolution(plan, costmap.resolution())) {
+    unsigned mx, my;
+    if (costmap.worldToMap(p.x, p.y, mx, my) && costmap.cost(mx, my) != kNoInformation) {
+      goal_index = costmap.index(mx, my);
+      started = true;
+    } else if (started) {
+      break;
+    }
+  }
+  if (!started) return;
+  std::vector<unsigned> queue{goal_index};
+  target_dist_[goal_index] = 0.0;
+  marked_[goal_index] = 1;
+  propagate(costmap, queue);
+}
+
+double footprintCostAt(const CostGrid& map, const Polygon& footprint, const Pose2D& pose) {
+  return footprintCostAt(map, footprint, pose, std::cos(pose.yaw), std::sin(pose.yaw));
+}
+
+double footprintCostAt(const CostGrid& map, const Polygon& footprint, const Pose2D& pose, double c, double s) {
+  unsigned cx, cy;
+  if (!map.worldToMap(pose.x, pose.y, cx, cy)) return -7.0;
+  const size_t n = footprint.size();
+  double outline_cost = 0.0;
+  if (n < 3) {
+    const uint8_t c = map.cost(cx, cy);
+    if (isBlocking(c)) return -6.0;
+    outline_cost = c;
+  } else {
+    // Vertex cells; small fixed storage because this runs for every rollout point.
+    constexpr size_t kMaxVertices = 64;
+    if (n > kMaxVertices) return -6.0;
+    unsigned xs[kMaxVertices], ys[kMaxVertices];
+    for (size_t i = 0; i < n; ++i) {
+      const double wx = pose.x + c * footprint[i].x - s * footprint[i].y;
+      const double wy = pose.y + s * footprint[i].x + c * footprint[i].y;
+      if (!map.worldToMap(wx, wy, xs[i], ys[i])) return -6.0;
+    }
+    const uint8_t* cells = map.cells().data();
+    bool blocked = false;
+    uint8_t worst = 0;
+    for (size_t i = 0; i < n && !blocked; ++i) {
+      const size_t j = (i + 1) % n;
+      map.raytraceLine(
+          [&](unsigned index) {
+            const uint8_t cost = cells[index];
+            if (cost == kLethalObstacle || cost == kNoInformation) blocked = true;
+            worst = std::max(worst, cost);
+          },
+          xs[i], ys[i], xs[j], ys[j]);
+    }
+    if (blocked) return -6.0;
+    outline_cost = worst;
+  }
+  return std::max(outline_cost, static_cast<double>(map.cost(cx, cy)));
+}
+
+// ----------------------------------------------------------------------------- DwaPlanner
+
+DwaPlanner::DwaPlanner(const DwaConfig& config) : config_(config) {
+  config_.vx_samples = std::max(1, config_.vx_samples);
+  config_.vy_samples = std::max(1, config_.vy_samples);
+  config_.vth_samples = std::max(1, config_.vth_samples);
+}
+
+void DwaPlanner::resetOscillationFlags() { oscillation_ = OscillationFlags{}; }
+
+void DwaPlanner::updatePlanAndLocalCosts(const CostGrid& costmap, const Pose2D& pose,
+                                         const std::vector<Pose2D>& plan, const Polygon& footprint) {
+  costmap_ = &costmap;
+  footprint_ = footprint;
+  if (plan.empty()) return;
+  path_grid_.setTargetCells(costmap, plan);
+  goal_grid_.setLocalGoal(costmap, plan);
+  // The nose (forward_point_distance ahead) is drawn to a point that far past the goal, seen
+  // from the robot, so that the final turn does not pull the nose sideways.
+  const Pose2D& goal = plan.back();
+  std::vector<Pose2D> front_plan = plan;
+  const double angle_to_goal = std::atan2(goal.y - pose.y, goal.x - pose.x);
+  front_plan.back().x += config_.forward_point_distance * std::cos(angle_to_goal);
+  front_plan.back().y += config_.forward_point_distance * std::sin(angle_to_goal);
+  goal_front_grid_.setLocalGoal(costmap, front_plan);
+  // Keeping the nose on the path destabilises the last forward_point_distance: switch it off there.
+  const double sq_dist = (pose.x - goal.x) * (pose.x - goal.x) + (pose.y - goal.y) * (pose.y - goal.y);
+  if (sq_dist > config_.forward_point_distance * config_.forward_point_distance) {
+    alignment_scale_ = costmap.resolution() * config_.path_distance_bias;
+    alignment_grid_.setTargetCells(costmap, plan);
+  } else {
+    alignment_scale_ = 0.0;
+  }
+}
+
+std::vector<Velocity2D> DwaPlanner::velocitySamples(const Velocity2D& velocity) const {
+  const LocalPlannerLimits& l = config_.limits;
+  const double dt = config_.sim_period;
+  // The dynamic window: what one control period of acceleration can reach, within the limits.
+  const double max_x = std::min(l.max_vel_x, velocity.x + l.acc_lim_x * dt);
+  const double min_x = std::max(l.min_vel_x, velocity.x - l.acc_lim_x * dt);
+  const double max_y = std::min(l.max_vel_y, velocity.y + l.acc_lim_y * dt);
+  const double min_y = std::max(l.min_vel_y, velocity.y - l.acc_lim_y * dt);
+  const double max_th = std::min(l.max_vel_theta, velocity.theta + l.acc_lim_theta * dt);
+  const double min_th = std::max(-l.max_vel_theta, velocity.theta - l.acc_lim_theta * dt);
+  std::vector<Velocity2D> samples;
+  for (double vx : sampleRange(min_x, max_x, config_.vx_samples)) {
+    for (double vy : sampleRange(min_y, max_y, config_.vy_samples)) {
+      for (double vth : sampleRange(min_th, max_th, config_.vth_samples)) samples.push_back({vx, vy, vth});
+    }
+  }
+  return samples;
+}
+
+bool DwaPlanner::generateTrajectory(const Pose2D& pose, const Velocity2D& sample, Trajectory& trajectory) const {
+  const LocalPlannerLimits& l = config_.limits;
+  constexpr double kEps = 1e-4;
+  trajectory = Trajectory{};
+  trajectory.xv = sample.x;
+  trajectory.yv = sample.y;
+  trajectory.thetav = sample.theta;
+  const double speed = std::hypot(sample.x, sample.y);
+  // Too slow both in translation and in rotation: the robot would not really move.
+  if (l.min_vel_trans >= 0 && speed + kEps < l.min_vel_trans && l.min_vel_theta >= 0 &&
+      std::fabs(sample.theta) + kEps < l.min_vel_theta) {
+    return false;
+  }
+  if (l.max_vel_trans >= 0 && speed - kEps > l.max_vel_trans) return false;
+  const int steps = static_cast<int>(std::ceil(std::max(speed * config_.sim_time / config_.sim_granularity,
+                                                        std::fabs(sample.theta) * config_.sim_time /
+                                                            config_.angular_sim_granularity)));
+  if (steps == 0) return false;
+  const double dt = config_.sim_time / steps;
+  trajectory.time_delta = dt;
+  Pose2D p = pose;
+  trajectory.points.reserve(steps);
+  trajectory.cos_yaw.reserve(steps);
+  trajectory.sin_yaw.reserve(steps);
+  for (int i = 0; i < steps; ++i) {
+    const double c = std::cos(p.yaw), s = std::sin(p.yaw);
+    trajectory.points.push_back(p);
+    trajectory.cos_yaw.push_back(c);
+    trajectory.sin_yaw.push_back(s);
+    p.x += (sample.x * c - sample.y * s) * dt;
+    p.y += (sample.x * s + sample.y * c) * dt;
+    p.yaw += sample.theta * dt;
+  }
+  return true;
+}
+
+double DwaPlanner::oscillationCost(const Trajectory& t) const {
+  const OscillationFlags& f = oscillation_;
+  if ((f.forward_pos_only && t.xv < 0.0) || (f.forward_neg_only && t.xv > 0.0) ||
+      (f.strafe_pos_only && t.yv < 0.0) || (f.strafe_neg_only && t.yv > 0.0) ||
+      (f.rot_pos_only && t.thetav < 0.0) || (f.rot_neg_only && t.thetav > 0.0)) {
+    return -5.0;
+  }
+  return 0.0;
+}
+
+double DwaPlanner::obstacleCost(const Trajectory& trajectory) const {
+  double cost = 0.0;
+  for (size_t i = 0; i < trajectory.points.size(); ++i) {
+    const double c =
+        footprintCostAt(*costmap_, footprint_, trajectory.points[i], trajectory.cos_yaw[i], trajectory.sin_yaw[i]);
+    if (c < 0.0) return c;
+    cost = std::max(cost, c);
+  }
+  return cost;
+}
+
+double DwaPlanner::mapGridCost(const MapGrid& grid, const Trajectory& trajectory, double x_shift,
+                               bool stop_on_failure) const {
+  double cost = 0.0;
+  for (size_t i = 0; i < trajectory.points.size(); ++i) {
+    const Pose2D& p = trajectory.points[i];
+    const double px = p.x + x_shift * trajectory.cos_yaw[i], py = p.y + x_shift * trajectory.sin_yaw[i];
+    unsigned mx, my;
+    if (!costmap_->worldToMap(px, py, mx, my)) return -4.0;
+    const double d = grid.distance(mx, my);
+    if (stop_on_failure) {
+      if (d == grid.obstacleCosts()) return -3.0;
+      if (d == grid.unreachableCellCosts()) return -2.0;
+    }
+    cost = d;  // the last point counts
+  }
+  return cost;
+}
+
+double DwaPlanner::scoreTrajectory(const Trajectory& trajectory, double best_cost) const {
+  const double res = costmap_ ? costmap_->resolution() : 0.05;
+  const double path_scale = res * config_.path_distance_bias;
+  const double goal_scale = res * config_.goal_distance_bias;
+  const double fpd = config_.forward_point_distance;
+  // The critics of dwa_local_planner: scale, cost (negative = discard), what it prefers.
+  // dwa_local_planner runs the obstacle critic second; here it runs last. Every cost is >= 0
+  // and a sample is dropped as soon as its partial sum exceeds the best total, so the order
+  // never changes which sample wins; running the costly footprint check last skips it for
+  // most samples that are already worse.
+  struct Critic {
+    double scale;
+    double (*score)(const DwaPlanner&, const Trajectory&, double fpd);
+  };
+  const Critic critics[] = {
+      // oscillation: forbids reversing a direction until the robot has moved oscillation_reset_dist
+      {1.0, [](const DwaPlanner& p, const Trajectory& t, double) { return p.oscillationCost(t); }},
+      // goal front (goal_distance_bias): the nose point's distance to the local goal
+      {goal_scale,
+       [](const DwaPlanner& p, const Trajectory& t, double f) { return p.mapGridCost(p.goal_front_grid_, t, f, false); }},
+      // alignment (path_distance_bias, 0 near the goal): the nose point's distance to the path
+      {alignment_scale_,
+       [](const DwaPlanner& p, const Trajectory& t, double f) { return p.mapGridCost(p.alignment_grid_, t, f, false); }},
+      // path (path_distance_bias): the end point's distance to the global path
+      {path_scale,
+       [](const DwaPlanner& p, const Trajectory& t, double) { return p.mapGridCost(p.path_grid_, t, 0.0, true); }},
+      // goal (goal_distance_bias): the end point's distance to the local goal
+      {goal_scale,
+       [](const DwaPlanner& p, const Trajectory& t, double) { return p.mapGridCost(p.goal_grid_, t, 0.0, true); }},
+      // twirling (twirling_scale): prefers less spinning
+      {config_.twirling_scale, [](const DwaPlanner&, const Trajectory& t, double) { return std::fabs(t.thetav); }},
+      // obstacle (occdist_scale): max footprint cost along the rollout; lethal contact discards
+      {config_.occdist_scale, [](const DwaPlanner& p, const Trajectory& t, double) { return p.obstacleCost(t); }},
+  };
+  double total = 0.0;
+  for (const Critic& critic : critics) {
+    if (critic.scale == 0.0) continue;
+    const double cost = critic.score(*this, trajectory, fpd);
+    if (cost < 0.0) return cost;
+    total += cost * critic.scale;
+    // Costs only add up: once worse than the best so far, it stays worse.
+    if (best_cost > 0.0 && total > best_cost) break;
+  }
+  return total;
+}
+
+void DwaPlanner::updateOscillationFlags(const Pose2D& pose, const Trajectory& chosen) {
+  if (chosen.cost < 0.0) return;
+  OscillationFlags& f = oscillation_;
+  bool flag_set = false;
+  if (chosen.xv < 0.0) {
+    if (f.forward_pos) {
+      f.forward_neg_only = true;
+      flag_set = true;
+    }
+    f.forward_pos = false;
+    f.forward_neg = true;
+  }
+  if (chosen.xv > 0.0) {
+    if (f.forward_neg) {
+      f.forward_pos_only = true;
+      flag_set = true;
+    }
+    f.forward_neg = false;
+    f.forward_pos = true;
+  }
+  // Strafing and rotation flags only count when (almost) not translating.
+  if (std::fabs(chosen.xv) <= config_.limits.min_vel_trans) {
+    if (chosen.yv < 0.0) {
+      if (f.strafe_pos) {
+        f.strafe_neg_only = true;
+        flag_set = true;
+      }
+      f.strafe_pos = false;
+      f.strafe_neg = true;
+    }
+    if (chosen.yv > 0.0) {
+      if (f.strafe_neg) {
+        f.strafe_pos_only = true;
+        flag_set = true;
+      }
+      f.strafe_neg = false;
+      f.strafe_pos = true;
+    }
+    if (chosen.thetav < 0.0) {
+      if (f.rot_pos) {
+        f.rot_neg_only = true;
+        flag_set = true;
+      }
+      f.rot_pos = false;
+      f.rot_neg = true;
+    }
+    if (chosen.thetav > 0.0) {
+      if (f.rot_neg) {
+        f.rot_pos_only = true;
+        flag_set = true;
+      }
+      f.rot_neg = false;
+      f.rot_pos = true;
+    }
+  }
+  if (flag_set) prev_stationary_pose_ = pose;
+  if (f.restricted()) {
+    const double dx = pose.x - prev_stationary_pose_.x, dy = pose.y - prev_stationary_pose_.y;
+    if (dx * dx + dy * dy > config_.oscillation_reset_dist * config_.oscillation_reset_dist ||
+        std::fabs(pose.yaw - prev_stationary_pose_.yaw) > config_.oscillation_reset_angle) {
+      resetOscillationFlags();
+    }
+  }
+}
+
+Trajectory DwaPlanner::findBestPath(const Pose2D& pose, const Velocity2D& velocity) {
+  Trajectory best;
+  best.cost = -7.0;
+  double best_cost = -1.0;
+  Trajectory candidate;
+  last_sample_count_ = 0;
+  for (const Velocity2D& sample : velocitySamples(velocity)) {
+    if (!generateTrajectory(pose, sample, candidate)) continue;
+    ++last_sample_count_;
+    const double cost = scoreTrajectory(candidate, best_cost);
+    if (cost >= 0.0 && (best_cost < 0.0 || cost < best_cost)) {
+      best_cost = cost;
+      candidate.cost = cost;
+      best = candidate;
+    }
+  }
+  updateOscillationFlags(pose, best);
+  return best;
+}
+
+bool DwaPlanner::checkTrajectory(const Pose2D& pose, const Velocity2D& /*velocity*/, const Velocity2D& sample) {
+  resetOscillationFlags();
+  Trajectory trajectory;
+  // A sample that generates no rollout (e.g. a full stop) has nothing to collide with.
+  generateTrajectory(pose, sample, trajectory);
+  return scoreTrajectory(trajectory, -1.0) >= 0.0;
+}
+
+}  // namespace nav
+}  // namespace marl_mrta

@@ -1,0 +1,118 @@
+// fake_localization drop-in: map -> <odom_frame> from the simulator's ground truth, so that
+// map -> base equals the true pose (map -> odom = ground truth · odometry⁻¹, paired by stamp).
+// Also publishes amcl_pose and a one-pose particlecloud, and accepts initialpose (offset).
+#include <geometry_msgs/PoseArray.h>
+#include <geometry_msgs/PoseWithCovarianceStamped.h>
+#include <nav_msgs/Odometry.h>
+#include <ros/ros.h>
+#include <tf2_ros/transform_broadcaster.h>
+
+#include <deque>
+
+#include "marl_mrta/nav/local_controller.h"
+#include "ros_conversions.h"
+
+namespace {
+
+using marl_mrta::nav::Pose2D;
+using marl_mrta::nav::Transform2D;
+namespace conv = marl_mrta::nav::ros_conversions;
+
+// Pose b expressed as a transform (frame of b -> parent).
+Transform2D asTransform(const Pose2D& p) { return {p.x, p.y, p.yaw}; }
+Transform2D compose(const Transform2D& a, const Transform2D& b) {
+  const Pose2D p = a.apply({b.x, b.y, b.yaw});
+  return {p.x, p.y, p.yaw};
+}
+Transform2D inverse(const Transform2D& t) {
+  const double c = std::cos(t.yaw), s = std::sin(t.yaw);
+  return {-(c * t.x + s * t.y), -(-s * t.x + c * t.y), -t.yaw};
+}
+
+class FakeLocalization {
+ public:
+  FakeLocalization(ros::NodeHandle& nh, ros::NodeHandle& pnh) {
+    odom_frame_ = pnh.param<std::string>("odom_frame_id", "odom");
+    global_frame_ = pnh.param<std::string>("global_frame_id", "map");
+    transform_tolerance_ = pnh.param("transform_tolerance", 0.1);
+    offset_ = {pnh.param("delta_x", 0.0), pnh.param("delta_y", 0.0), pnh.param("delta_yaw", 0.0)};
+    pose_pub_ = nh.advertise<geometry_msgs::PoseWithCovarianceStamped>("amcl_pose", 1);
+    cloud_pub_ = nh.advertise<geometry_msgs::PoseArray>("particlecloud", 1);
+    truth_sub_ = nh.subscribe("base_pose_ground_truth", 100, &FakeLocalization::onTruth, this);
+    odom_sub_ = nh.subscribe("odom", 100, &FakeLocalization::onOdom, this);
+    initial_sub_ = nh.subscribe("initialpose", 1, &FakeLocalization::onInitialPose, this);
+  }
+
+ private:
+  void onOdom(const nav_msgs::Odometry::ConstPtr& msg) {
+    odoms_.push_back(msg);
+    if (odoms_.size() > 50) odoms_.pop_front();
+    tryPair();
+  }
+  void onTruth(const nav_msgs::Odometry::ConstPtr& msg) {
+    truths_.push_back(msg);
+    if (truths_.size() > 50) truths_.pop_front();
+    last_truth_ = msg;
+    tryPair();
+  }
+  void onInitialPose(const geometry_msgs::PoseWithCovarianceStamped::ConstPtr& msg) {
+    if (!last_truth_) return;
+    // Choose the offset that puts the current true pose at the requested one.
+    const Transform2D truth = asTransform(conv::toPose2D(last_truth_->pose.pose));
+    offset_ = compose(asTransform(conv::toPose2D(msg->pose.pose)), inverse(truth));
+  }
+  // Ground truth and odometry of the same instant give map -> odom.
+  void tryPair() {
+    while (!truths_.empty()) {
+      const auto& truth = truths_.front();
+      while (!odoms_.empty() && odoms_.front()->header.stamp < truth->header.stamp) odoms_.pop_front();
+      if (odoms_.empty()) return;
+      if (odoms_.front()->header.stamp == truth->header.stamp) publish(*truth, *odoms_.front());
+      truths_.pop_front();
+    }
+  }
+  void publish(const nav_msgs::Odometry& truth, const nav_msgs::Odometry& odom) {
+    const Transform2D map_base = compose(offset_, asTransform(conv::toPose2D(truth.pose.pose)));
+    const Transform2D map_odom = compose(map_base, inverse(asTransform(conv::toPose2D(odom.pose.pose))));
+    geometry_msgs::TransformStamped tf;
+    tf.header.stamp = truth.header.stamp + ros::Duration(transform_tolerance_);
+    tf.header.frame_id = global_frame_;
+    tf.child_frame_id = odom_frame_;
+    tf.transform.translation.x = map_odom.x;
+    tf.transform.translation.y = map_odom.y;
+    tf.transform.rotation = conv::quaternionFromYaw(map_odom.yaw);
+    broadcaster_.sendTransform(tf);
+    geometry_msgs::PoseWithCovarianceStamped pose;
+    pose.header.stamp = truth.header.stamp;
+    pose.header.frame_id = global_frame_;
+    pose.pose.pose.position.x = map_base.x;
+    pose.pose.pose.position.y = map_base.y;
+    pose.pose.pose.orientation = conv::quaternionFromYaw(map_base.yaw);
+    if (pose_pub_.getNumSubscribers() > 0) pose_pub_.publish(pose);
+    if (cloud_pub_.getNumSubscribers() > 0) {
+      geometry_msgs::PoseArray cloud;
+      cloud.header = pose.header;
+      cloud.poses.push_back(pose.pose.pose);
+      cloud_pub_.publish(cloud);
+    }
+  }
+
+  std::string odom_frame_, global_frame_;
+  double transform_tolerance_ = 0.1;
+  Transform2D offset_;
+  ros::Publisher pose_pub_, cloud_pub_;
+  ros::Subscriber truth_sub_, odom_sub_, initial_sub_;
+  tf2_ros::TransformBroadcaster broadcaster_;
+  std::deque<nav_msgs::Odometry::ConstPtr> odoms_, truths_;
+  nav_msgs::Odometry::ConstPtr last_truth_;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  ros::init(argc, argv, "fake_localization");
+  ros::NodeHandle nh, pnh("~");
+  FakeLocalization node(nh, pnh);
+  ros::spin();
+  return 0;
+}

@@ -1,0 +1,213 @@
+// DWA local planner: velocity and acceleration limits, obstacles ahead, reaching a goal.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "marl_mrta/nav/inflation_layer.h"
+#include "marl_mrta/nav/local_controller.h"
+#include "marl_mrta/nav/static_layer.h"
+#include "nav_test_helpers.h"
+
+using namespace marl_mrta::nav;
+using namespace marl_mrta::nav::testing;
+
+namespace {
+
+// TurtleBot3 Burger's dwa_local_planner_params_burger.yaml.
+DwaConfig burgerDwa() {
+  DwaConfig c;
+  c.limits.max_vel_x = 0.22;
+  c.limits.min_vel_x = -0.22;
+  c.limits.max_vel_y = c.limits.min_vel_y = 0.0;
+  c.limits.max_vel_trans = 0.22;
+  c.limits.min_vel_trans = 0.11;
+  c.limits.max_vel_theta = 2.75;
+  c.limits.min_vel_theta = 1.37;
+  c.limits.acc_lim_x = 2.5;
+  c.limits.acc_lim_y = 0.0;
+  c.limits.acc_lim_theta = 3.2;
+  c.limits.xy_goal_tolerance = 0.05;
+  c.limits.yaw_goal_tolerance = 0.17;
+  c.sim_time = 1.5;
+  c.vx_samples = 20;
+  c.vy_samples = 1;
+  c.vth_samples = 40;
+  c.sim_period = 0.1;
+  c.path_distance_bias = 32.0;
+  c.goal_distance_bias = 20.0;
+  c.occdist_scale = 0.02;
+  c.forward_point_distance = 0.325;
+  c.oscillation_reset_dist = 0.05;
+  return c;
+}
+
+std::unique_ptr<LayeredCostmap> costmapOf(const marl_mrta::map::OccupancyMap& m) {
+  auto costmap = std::make_unique<LayeredCostmap>(false, false);
+  costmap->setFootprint(padFootprint(burgerFootprint(), 0.01));
+  auto layer = std::make_unique<StaticLayer>("static_layer", StaticLayerConfig{}, *costmap);
+  layer->setMap(m);
+  costmap->addLayer(std::move(layer));
+  costmap->addLayer(std::make_unique<InflationLayer>("inflation_layer", InflationLayerConfig{1.0, 3.0, false}));
+  costmap->updateMap(Pose2D{});
+  return costmap;
+}
+
+std::vector<Pose2D> straightPlan(const Pose2D& from, const Pose2D& to, double step = 0.025) {
+  std::vector<Pose2D> plan;
+  const double length = std::hypot(to.x - from.x, to.y - from.y);
+  const int n = static_cast<int>(std::ceil(length / step));
+  for (int i = 0; i < n; ++i) plan.push_back({from.x + (to.x - from.x) * i / n, from.y + (to.y - from.y) * i / n, 0.0});
+  plan.push_back(to);
+  return plan;
+}
+
+// A unicycle that follows commands within the acceleration limits (as the simulator does).
+struct Robot {
+  Pose2D pose;
+  Velocity2D velocity;
+  void step(const Velocity2D& command, const LocalPlannerLimits& l, double dt) {
+    auto approach = [dt](double current, double target, double acc) {
+      return current + std::max(-acc * dt, std::min(acc * dt, target - current));
+    };
+    velocity.x = approach(velocity.x, command.x, l.acc_lim_x);
+    velocity.theta = approach(velocity.theta, command.theta, l.acc_lim_theta);
+    pose.x += velocity.x * std::cos(pose.yaw) * dt;
+    pose.y += velocity.x * std::sin(pose.yaw) * dt;
+    pose.yaw = normalizeAngle(pose.yaw + velocity.theta * dt);
+  }
+};
+
+bool inCollision(const CostGrid& g, const Pose2D& pose) {
+  std::vector<double> xs, ys;
+  transformFootprint(burgerFootprint(), pose, xs, ys);
+  for (unsigned index : g.convexFillCells(xs, ys)) {
+    if (g.cells()[index] == kLethalObstacle) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+TEST(Dwa, SamplesStayInsideVelocityLimitsAndAccelerationWindow) {
+  const DwaConfig config = burgerDwa();
+  DwaPlanner planner(config);
+  const LocalPlannerLimits& l = config.limits;
+  for (double vx = -0.22; vx <= 0.2201; vx += 0.055) {
+    for (double vth = -2.75; vth <= 2.7501; vth += 0.55) {
+      const std::vector<Velocity2D> samples = planner.velocitySamples({vx, 0.0, vth});
+      ASSERT_FALSE(samples.empty());
+      for (const Velocity2D& s : samples) {
+        EXPECT_GE(s.x, l.min_vel_x - 1e-9);
+        EXPECT_LE(s.x, l.max_vel_x + 1e-9);
+        EXPECT_LE(std::fabs(s.theta), l.max_vel_theta + 1e-9);
+        EXPECT_LE(std::fabs(s.x - vx), l.acc_lim_x * config.sim_period + 1e-9);
+        EXPECT_LE(std::fabs(s.theta - vth), l.acc_lim_theta * config.sim_period + 1e-9);
+        EXPECT_EQ(0.0, s.y);
+      }
+    }
+  }
+}
+
+TEST(Dwa, CommandsRespectLimitsWhileDriving) {
+  // Closed loop along an L-shaped route: every command within limits and the window.
+  const auto m = roomMap(80, 80, {{20, 0, 24, 50}});
+  auto costmap = costmapOf(m);
+  const DwaConfig config = burgerDwa();
+  LocalController controller(config);
+  std::vector<Pose2D> plan = straightPlan({0.5, 0.5, 0}, {0.5, 3.0, 0});
+  const std::vector<Pose2D> second = straightPlan({0.5, 3.0, 0}, {3.0, 3.0, 0});
+  plan.insert(plan.end(), second.begin() + 1, second.end());
+  controller.setPlan(plan);
+  Robot robot{{0.5, 0.5, M_PI / 2}, {}};
+  const LocalPlannerLimits& l = config.limits;
+  int commands = 0;
+  for (int step = 0; step < 400 && !controller.isGoalReached(robot.pose, robot.velocity, {}); ++step) {
+    const ControlResult r =
+        controller.computeVelocityCommands(costmap->costmap(), costmap->footprint(), robot.pose, robot.velocity, {});
+    ASSERT_TRUE(r.ok) << r.message << " at step " << step;
+    ++commands;
+    EXPECT_LE(r.command.x, l.max_vel_x + 1e-9);
+    EXPECT_GE(r.command.x, l.min_vel_x - 1e-9);
+    EXPECT_LE(std::hypot(r.command.x, r.command.y), l.max_vel_trans + 1e-4);
+    EXPECT_LE(std::fabs(r.command.theta), l.max_vel_theta + 1e-9);
+    if (!controller.isPositionReached(robot.pose, {})) {
+      // The sampling planner (not the final in-place turn) stays inside the dynamic window.
+      EXPECT_LE(std::fabs(r.command.x - robot.velocity.x), l.acc_lim_x * config.sim_period + 1e-9);
+      EXPECT_LE(std::fabs(r.command.theta - robot.velocity.theta), l.acc_lim_theta * config.sim_period + 1e-9);
+    }
+    robot.step(r.command, l, config.sim_period);
+    ASSERT_FALSE(inCollision(costmap->costmap(), robot.pose)) << "collision at step " << step;
+  }
+  EXPECT_TRUE(controller.isGoalReached(robot.pose, robot.velocity, {}));
+  EXPECT_GT(commands, 50);
+}
+
+TEST(Dwa, StopsBeforeAWallStraightAhead) {
+  // The plan runs straight through a wall across the whole room (e.g. a closed door).
+  const auto m = roomMap(100, 60, {{50, 0, 52, 60}});
+  auto costmap = costmapOf(m);
+  const DwaConfig config = burgerDwa();
+  LocalController controller(config);
+  controller.setPlan(straightPlan({0.5, 1.5, 0}, {4.5, 1.5, 0}));
+  Robot robot{{1.2, 1.5, 0.0}, {0.22, 0.0, 0.0}};  // at full speed, 1.3 m from the wall
+  double max_x = robot.pose.x;
+  for (int step = 0; step < 200; ++step) {
+    const ControlResult r =
+        controller.computeVelocityCommands(costmap->costmap(), costmap->footprint(), robot.pose, robot.velocity, {});
+    robot.step(r.ok ? r.command : Velocity2D{}, config.limits, config.sim_period);
+    max_x = std::max(max_x, robot.pose.x);
+    ASSERT_FALSE(inCollision(costmap->costmap(), robot.pose)) << "collision at step " << step;
+  }
+  EXPECT_LT(max_x + 0.041, 2.5) << "front of the robot must stay before the wall at x = 2.5 m";
+  EXPECT_LT(std::fabs(robot.velocity.x), 1e-6) << "the robot must have stopped";
+}
+
+TEST(Dwa, NeverDrivesIntoAnObstacleOnThePath) {
+  // An obstacle appeared on the plan (the plan is stale): DWA goes around it or stops, never into it.
+  const auto m = roomMap(100, 60, {{48, 24, 56, 36}});
+  auto costmap = costmapOf(m);
+  const DwaConfig config = burgerDwa();
+  LocalController controller(config);
+  controller.setPlan(straightPlan({0.5, 1.5, 0}, {4.5, 1.5, 0}));
+  Robot robot{{0.5, 1.5, 0.0}, {}};
+  for (int step = 0; step < 300; ++step) {
+    const ControlResult r =
+        controller.computeVelocityCommands(costmap->costmap(), costmap->footprint(), robot.pose, robot.velocity, {});
+    robot.step(r.ok ? r.command : Velocity2D{}, config.limits, config.sim_period);
+    ASSERT_FALSE(inCollision(costmap->costmap(), robot.pose)) << "collision at step " << step;
+  }
+  EXPECT_GT(robot.pose.x, 1.0) << "the robot should at least have driven towards the obstacle";
+}
+
+TEST(Dwa, ReachesGoalPositionAndYawWithinTolerance) {
+  const auto m = roomMap(80, 80, {});
+  auto costmap = costmapOf(m);
+  const DwaConfig config = burgerDwa();
+  LocalController controller(config);
+  const Pose2D goal{2.5, 1.8, M_PI / 2};
+  controller.setPlan(straightPlan({1.0, 1.0, 0}, goal));
+  Robot robot{{1.0, 1.0, 0.0}, {}};
+  // Odometry frame shifted against the map frame: the controller works in "odom".
+  const Transform2D map_to_odom{0.3, -0.2, 0.1};
+  bool reached = false;
+  for (int step = 0; step < 600 && !reached; ++step) {
+    const Pose2D pose_odom = map_to_odom.apply(robot.pose);
+    reached = controller.isGoalReached(pose_odom, robot.velocity, map_to_odom);
+    if (reached) break;
+    const ControlResult r = controller.computeVelocityCommands(costmap->costmap(), costmap->footprint(), pose_odom,
+                                                               robot.velocity, map_to_odom);
+    robot.step(r.ok ? r.command : Velocity2D{}, config.limits, config.sim_period);
+  }
+  ASSERT_TRUE(reached);
+  EXPECT_LE(std::hypot(robot.pose.x - goal.x, robot.pose.y - goal.y), 0.05);
+  EXPECT_LE(std::fabs(normalizeAngle(robot.pose.yaw - goal.yaw)), 0.17);
+}
+
+TEST(Transform2D, BetweenMapsOnePoseOntoTheOther) {
+  const Pose2D in_map{1.0, 2.0, 0.5}, in_odom{-0.3, 0.7, 2.0};
+  const Transform2D t = Transform2D::between(in_map, in_odom);
+  const Pose2D mapped = t.apply(in_map);
+  EXPECT_NEAR(in_odom.x, mapped.x, 1e-12);
+  EXPECT_NEAR(in_odom.y, mapped.y, 1e-12);
+  EXPECT_NEAR(in_odom.yaw, mapped.yaw, 1e-12);
+}

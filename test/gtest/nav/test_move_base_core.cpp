@@ -1,0 +1,130 @@
+// move_base's executive without ROS: a kinematic robot driven cycle by cycle.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "marl_mrta/nav/move_base_core.h"
+#include "marl_mrta/nav/static_layer.h"
+#include "nav_test_helpers.h"
+
+using namespace marl_mrta::nav;
+using namespace marl_mrta::nav::testing;
+
+namespace {
+
+const std::string kConfigDir = std::string(MARL_MRTA_SOURCE_DIR) + "/config/nav/";
+
+MoveBaseConfig projectConfig() {
+  YAML::Node tree(YAML::NodeType::Map);
+  loadYamlFileInto(tree, kConfigDir + "costmap_common_params_burger.yaml", "global_costmap");
+  loadYamlFileInto(tree, kConfigDir + "costmap_common_params_burger.yaml", "local_costmap");
+  loadYamlFileInto(tree, kConfigDir + "local_costmap_params.yaml", "");
+  loadYamlFileInto(tree, kConfigDir + "global_costmap_params.yaml", "");
+  loadYamlFileInto(tree, kConfigDir + "move_base_params.yaml", "");
+  loadYamlFileInto(tree, kConfigDir + "dwa_local_planner_params_burger.yaml", "");
+  loadYamlFileInto(tree, kConfigDir + "navfn_params.yaml", "");
+  return readMoveBaseConfig(ParamNode(tree, "move_base"));
+}
+
+// A unicycle following commands within the acceleration limits; odom = map (ideal localisation).
+struct Harness {
+  explicit Harness(const marl_mrta::map::OccupancyMap& m, const Pose2D& start) : core(projectConfig()), pose(start) {
+    core.globalCostmap().layersOfType<StaticLayer>().front()->setMap(m);
+  }
+  CycleOutput cycle() {
+    core.updateCostmaps(now, pose, pose);
+    CycleInput in{now, pose, pose, velocity};
+    CycleOutput out = core.runCycle(in);
+    if (out.publish_command) command = out.command;
+    const double dt = 1.0 / core.config().controller_frequency;
+    const LocalPlannerLimits& l = core.config().dwa.limits;
+    auto approach = [dt](double v, double target, double acc) {
+      return v + std::max(-acc * dt, std::min(acc * dt, target - v));
+    };
+    velocity.x = approach(velocity.x, command.x, l.acc_lim_x);
+    velocity.theta = approach(velocity.theta, command.theta, l.acc_lim_theta);
+    pose.x += velocity.x * std::cos(pose.yaw) * dt;
+    pose.y += velocity.x * std::sin(pose.yaw) * dt;
+    pose.yaw = normalizeAngle(pose.yaw + velocity.theta * dt);
+    now += dt;
+    return out;
+  }
+  // Runs until the goal ends (or max_cycles); returns the final output.
+  CycleOutput runUntilDone(int max_cycles) {
+    for (int i = 0; i < max_cycles; ++i) {
+      CycleOutput out = cycle();
+      if (out.outcome != CycleOutput::Outcome::kNone) return out;
+    }
+    return CycleOutput{};
+  }
+  MoveBaseCore core;
+  Pose2D pose;
+  Velocity2D velocity, command;
+  double now = 0.0;
+};
+
+// 4 m x 3 m room, a wall with a 1 m door in the middle, a column in the right half.
+marl_mrta::map::OccupancyMap doorRoom() {
+  return roomMap(80, 60, {{39, 0, 42, 25}, {39, 45, 42, 60}, {58, 38, 66, 46}});
+}
+
+}  // namespace
+
+TEST(MoveBaseCore, ReachesAGoalThroughTheDoorWithinTolerance) {
+  Harness h(doorRoom(), {0.5, 0.5, 0.0});
+  const Pose2D goal{3.4, 0.6, M_PI};
+  h.core.setGoal(goal, h.now);
+  EXPECT_EQ(MoveBaseState::kPlanning, h.core.state());
+  const CycleOutput out = h.runUntilDone(1500);
+  ASSERT_EQ(CycleOutput::Outcome::kSucceeded, out.outcome) << out.message << " at t = " << h.now;
+  EXPECT_EQ("Goal reached.", out.message);
+  EXPECT_LE(std::hypot(h.pose.x - goal.x, h.pose.y - goal.y), 0.05);
+  EXPECT_LE(std::fabs(normalizeAngle(h.pose.yaw - goal.yaw)), 0.17);
+  EXPECT_FALSE(h.core.active());
+  EXPECT_GT(h.core.timings().plans, 1u) << "planner_frequency 5 Hz replans while controlling";
+}
+
+TEST(MoveBaseCore, GoalInsideAColumnAbortsAfterPlannerPatience) {
+  Harness h(doorRoom(), {0.5, 0.5, 0.0});
+  h.core.setGoal({3.1, 2.1, 0.0}, h.now);  // centre of the column
+  const CycleOutput out = h.runUntilDone(200);
+  ASSERT_EQ(CycleOutput::Outcome::kAborted, out.outcome);
+  EXPECT_EQ(0u, out.message.find("Failed to find a valid plan")) << out.message;
+  EXPECT_NE(std::string::npos, out.message.find("inside an obstacle of the static map")) << out.message;
+  const double patience = h.core.config().planner_patience;
+  const double abort_time = h.now - 1.0 / h.core.config().controller_frequency;  // cycle() advanced the clock
+  EXPECT_GT(abort_time, patience);
+  EXPECT_LE(abort_time, patience + 1.0 / h.core.config().planner_frequency + 1e-9)
+      << "abort at the first planning attempt after the patience";
+  EXPECT_NEAR(0.0, h.command.x, 1e-12);
+}
+
+TEST(MoveBaseCore, UnreachableGoalAbortsAfterRecoveries) {
+  // The right half is closed off: the goal there is free but cannot be reached.
+  Harness h(roomMap(80, 60, {{39, 0, 42, 60}}), {0.5, 0.5, 0.0});
+  h.core.setGoal({3.0, 1.5, 0.0}, h.now);
+  std::vector<std::string> recoveries;
+  CycleOutput out;
+  for (int i = 0; i < 2000 && out.outcome == CycleOutput::Outcome::kNone; ++i) {
+    out = h.cycle();
+    if (!out.recovery_started.empty()) recoveries.push_back(out.recovery_started);
+  }
+  ASSERT_EQ(CycleOutput::Outcome::kAborted, out.outcome);
+  EXPECT_EQ(0u, out.message.find("Failed to find a valid plan. Even after executing recovery behaviors."))
+      << out.message;
+  EXPECT_EQ((std::vector<std::string>{"conservative_reset", "rotate_recovery", "aggressive_reset", "rotate_recovery"}),
+            recoveries);
+}
+
+TEST(MoveBaseCore, CancelStopsCommanding) {
+  Harness h(doorRoom(), {0.5, 0.5, 0.0});
+  h.core.setGoal({3.4, 0.6, 0.0}, h.now);
+  for (int i = 0; i < 30; ++i) h.cycle();
+  EXPECT_EQ(MoveBaseState::kControlling, h.core.state());
+  EXPECT_GT(std::fabs(h.velocity.x), 0.05);
+  h.core.cancel();
+  EXPECT_FALSE(h.core.active());
+  const CycleOutput out = h.core.runCycle(CycleInput{h.now, h.pose, h.pose, h.velocity});
+  EXPECT_FALSE(out.publish_command);
+  EXPECT_EQ(CycleOutput::Outcome::kNone, out.outcome);
+}

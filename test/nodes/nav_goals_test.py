@@ -1,0 +1,295 @@
+#!/usr/bin/env python3
+"""Black-box rostests of per-robot navigation (move_base action) in the simulator.
+
+One script, several cases chosen by ``~case``:
+  tour       one robot visits the eight task goals of scenarios/lab_2r.xml in order; each
+             succeeds within 0.05 m / 0.17 rad of the goal, no collision event
+  swap       two robots swap sides of the partition wall through its door at the same time;
+             both succeed, no robot-robot collision
+  goal_errors  a goal inside a column aborts with a clear message within the planner patience;
+             invalid quaternion and unknown frame are rejected; move_base keeps working
+  cancel     cancelling a goal stops the robot
+  tb3_world  one robot navigates between three goals on TurtleBot3's own map (turtlebot3_world)
+Times are simulation time; waiting is bounded by wall-clock deadlines (a stalled lock-step
+graph fails the test instead of hanging it). ``~result_file`` (optional) receives per-goal
+figures as JSON (used by scripts/bench_nav).
+"""
+import json
+import math
+import os
+import sys
+import threading
+import time
+import unittest
+import xml.etree.ElementTree as ElementTree
+
+import actionlib
+import rospkg
+import rospy
+import rostest
+from actionlib_msgs.msg import GoalStatus
+from geometry_msgs.msg import Pose2D
+from move_base_msgs.msg import MoveBaseAction, MoveBaseActionResult, MoveBaseGoal
+from nav_msgs.msg import Odometry
+from std_srvs.srv import SetBool
+
+from marl_mrta.msg import CollisionEvent
+from marl_mrta.srv import ResetSim
+
+PKG = "marl_mrta"
+XY_TOLERANCE = 0.05
+YAW_TOLERANCE = 0.17
+WALL_TIMEOUT = 240.0  # [s] per goal, wall clock
+
+
+def yaw_of(q):
+    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+
+
+def angle_diff(a, b):
+    return math.atan2(math.sin(a - b), math.cos(a - b))
+
+
+class Robot:
+    """One robot's move_base client and ground-truth history."""
+
+    def __init__(self, ns):
+        self.ns = ns
+        self.lock = threading.Lock()
+        self.truth = []  # (stamp [s], x, y, yaw, linear speed, angular speed)
+        self.client = actionlib.SimpleActionClient(ns + "/move_base", MoveBaseAction)
+        self.result_stamps = {}  # goal id -> stamp of its result (the tick at which it ended)
+        rospy.Subscriber(ns + "/base_pose_ground_truth", Odometry, self.on_truth, queue_size=100)
+        rospy.Subscriber(ns + "/move_base/result", MoveBaseActionResult, self.on_result, queue_size=10)
+
+    def on_result(self, msg):
+        with self.lock:
+            self.result_stamps[msg.status.goal_id.id] = msg.header.stamp.to_sec()
+
+    def on_truth(self, msg):
+        p = msg.pose.pose
+        t = msg.twist.twist
+        with self.lock:
+            self.truth.append((msg.header.stamp.to_sec(), p.position.x, p.position.y, yaw_of(p.orientation),
+                               math.hypot(t.linear.x, t.linear.y), abs(t.angular.z)))
+            del self.truth[:-4000]
+
+    def latest(self):
+        deadline = time.time() + 30.0
+        while time.time() < deadline and not rospy.is_shutdown():
+            with self.lock:
+                if self.truth:
+                    return self.truth[-1]
+            time.sleep(0.01)
+        raise AssertionError(self.ns + ": no ground truth received")
+
+    def truth_at(self, stamp):
+        """The last ground truth at or before `stamp` (waits until one after it has arrived)."""
+        deadline = time.time() + 10.0
+        while time.time() < deadline:
+            with self.lock:
+                if self.truth and self.truth[-1][0] >= stamp:
+                    before = [s for s in self.truth if s[0] <= stamp]
+                    return before[-1] if before else self.truth[0]
+            time.sleep(0.005)
+        return self.latest()
+
+    def send(self, x, y, yaw, frame="map", quaternion=None):
+        goal = MoveBaseGoal()
+        goal.target_pose.header.frame_id = frame
+        goal.target_pose.header.stamp = rospy.Time.now()
+        goal.target_pose.pose.position.x = x
+        goal.target_pose.pose.position.y = y
+        q = goal.target_pose.pose.orientation
+        if quaternion is None:
+            q.z, q.w = math.sin(yaw / 2.0), math.cos(yaw / 2.0)
+        else:
+            q.x, q.y, q.z, q.w = quaternion
+        self.client.send_goal(goal)
+        return rospy.Time.now().to_sec()
+
+    def send_synchronised(self, goal):
+        """Sends a goal while the simulator is paused, so that it starts at a known tick."""
+        pause = rospy.ServiceProxy("/simulator/pause", SetBool)
+        pause(True)
+        try:
+            t0 = self.send(*goal)
+            deadline = time.time() + 30.0
+            while self.client.get_state() == GoalStatus.PENDING and time.time() < deadline:
+                time.sleep(0.001)
+        finally:
+            pause(False)
+        return t0
+
+    def wait(self, timeout=WALL_TIMEOUT):
+        """Waits (wall clock) for the goal to end: (state, text, sim time at the end)."""
+        deadline = time.time() + timeout
+        while time.time() < deadline and not rospy.is_shutdown():
+            state = self.client.get_state()
+            if state not in (GoalStatus.PENDING, GoalStatus.ACTIVE, GoalStatus.PREEMPTING, GoalStatus.RECALLING):
+                goal_id = self.client.gh.comm_state_machine.action_goal.goal_id.id
+                end = time.time() + 5.0
+                while goal_id not in self.result_stamps and time.time() < end:
+                    time.sleep(0.001)
+                with self.lock:
+                    result_stamp = self.result_stamps.get(goal_id, rospy.Time.now().to_sec())
+                return state, self.client.get_goal_status_text(), result_stamp
+            time.sleep(0.002)
+        raise AssertionError("%s: goal still running after %.0f s of wall time" % (self.ns, timeout))
+
+
+class NavTest(unittest.TestCase):
+    robots = ["tb3_0"]
+
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node("nav_goals_test")
+        cls.collisions = []
+        rospy.Subscriber("/simulator/collisions", CollisionEvent,
+                         lambda msg: cls.collisions.append((msg.stamp.to_sec(), msg.robot, msg.other)), queue_size=100)
+        cls.fleet = {ns: Robot(ns) for ns in cls.robots}
+        for robot in cls.fleet.values():
+            if not robot.client.wait_for_server(rospy.Duration(60.0)):
+                raise AssertionError(robot.ns + "/move_base action server not available")
+            robot.latest()
+        cls.results = []
+
+    @classmethod
+    def tearDownClass(cls):
+        result_file = rospy.get_param("~result_file", "")
+        if result_file:
+            with open(result_file, "w") as out:
+                json.dump({"goals": cls.results, "collisions": cls.collisions}, out, indent=1)
+
+    def reset(self, poses):
+        rospy.wait_for_service("/simulator/reset", 30.0)
+        names = list(poses)
+        response = rospy.ServiceProxy("/simulator/reset", ResetSim)(
+            -1, names, [Pose2D(*poses[n]) for n in names])
+        self.assertTrue(response.success, response.message)
+        time.sleep(0.5)  # wall: lets the robots' new odometry and ground truth reach every node
+        for n in names:
+            stamp = self.fleet[n].latest()[0]
+            self.fleet[n].truth_at(stamp + 0.3)
+
+    def visit(self, robot, goal, label):
+        """Sends one goal, checks success within tolerance, records its figures."""
+        rospy.wait_for_service("/simulator/pause", 30.0)
+        start = robot.latest()
+        t0 = robot.send_synchronised(goal)
+        state, text, t1 = robot.wait()
+        self.assertEqual(GoalStatus.SUCCEEDED, state, "%s: goal %s %s ended in state %d: %s"
+                         % (robot.ns, label, goal, state, text))
+        _, x, y, yaw, _, _ = robot.truth_at(t1)
+        error_xy = math.hypot(x - goal[0], y - goal[1])
+        error_yaw = abs(angle_diff(yaw, goal[2]))
+        self.results.append({"robot": robot.ns, "goal": label, "x": goal[0], "y": goal[1], "yaw": goal[2],
+                             "time": t1 - t0, "straight_line": math.hypot(goal[0] - start[1], goal[1] - start[2]),
+                             "error_xy": error_xy, "error_yaw": error_yaw})
+        self.assertLessEqual(error_xy, XY_TOLERANCE, "%s: goal %s reached %.3f m away" % (robot.ns, label, error_xy))
+        self.assertLessEqual(error_yaw, YAW_TOLERANCE, "%s: goal %s reached %.3f rad off" % (robot.ns, label, error_yaw))
+
+    def assert_no_collisions(self, only_robots=False):
+        events = [c for c in self.collisions if not only_robots or c[2] != "wall"]
+        self.assertEqual([], events, "collision events (sim time, robot, other): %s" % events)
+
+
+class TourTest(NavTest):
+    def test_eight_task_goals_in_order(self):
+        scenario = os.path.join(rospkg.RosPack().get_path(PKG), "scenarios", "lab_2r.xml")
+        tasks = ElementTree.parse(scenario).getroot().find("tasks")
+        goals = [(t.get("id"), (float(t.get("x")), float(t.get("y")), float(t.get("yaw")))) for t in tasks]
+        self.assertEqual(8, len(goals))
+        robot = self.fleet["tb3_0"]
+        for label, goal in goals:
+            self.visit(robot, goal, label)
+        self.assert_no_collisions()
+
+
+class SwapTest(NavTest):
+    robots = ["tb3_0", "tb3_1"]
+
+    def test_swap_sides_through_the_door(self):
+        # Both start on the door's axis (y = 2.5), facing it, 2.5 m away on each side.
+        west, east = (1.0, 2.5, 0.0), (6.0, 2.5, math.pi)
+        self.reset({"tb3_0": west, "tb3_1": east})
+        del self.collisions[:]
+        a, b = self.fleet["tb3_0"], self.fleet["tb3_1"]
+        a.send(east[0], east[1], 0.0)
+        b.send(west[0], west[1], math.pi)
+        for robot, goal in ((a, (east[0], east[1], 0.0)), (b, (west[0], west[1], math.pi))):
+            state, text, t1 = robot.wait()
+            self.assertEqual(GoalStatus.SUCCEEDED, state, "%s ended in state %d: %s" % (robot.ns, state, text))
+            _, x, y, _, _, _ = robot.truth_at(t1)
+            self.assertLessEqual(math.hypot(x - goal[0], y - goal[1]), XY_TOLERANCE)
+        self.assert_no_collisions(only_robots=True)
+
+
+class GoalErrorsTest(NavTest):
+    def test_goal_inside_a_column_aborts_within_planner_patience(self):
+        robot = self.fleet["tb3_0"]
+        patience = rospy.get_param("/tb3_0/move_base/planner_patience")
+        planner_period = 1.0 / rospy.get_param("/tb3_0/move_base/planner_frequency")
+        t0 = robot.send(1.75, 1.5, 0.0)  # centre of the south-west column
+        state, text, t1 = robot.wait()
+        self.assertEqual(GoalStatus.ABORTED, state, text)
+        self.assertIn("Failed to find a valid plan", text)
+        self.assertIn("inside an obstacle of the static map", text)
+        self.assertLessEqual(t1 - t0, patience + planner_period + 0.2,
+                             "aborted %.2f s after the goal (planner_patience %.1f s)" % (t1 - t0, patience))
+
+    def test_invalid_quaternion_and_unknown_frame_are_rejected(self):
+        robot = self.fleet["tb3_0"]
+        robot.send(1.2, 1.0, 0.0, quaternion=(0.0, 0.0, 0.0, 0.0))
+        state, text, _ = robot.wait()
+        self.assertEqual(GoalStatus.ABORTED, state)
+        self.assertIn("invalid quaternion", text)
+        robot.send(1.2, 1.0, 0.0, quaternion=(0.7071, 0.0, 0.0, 0.7071))  # z axis not vertical
+        state, text, _ = robot.wait()
+        self.assertEqual(GoalStatus.ABORTED, state)
+        self.assertIn("invalid quaternion", text)
+        robot.send(1.2, 1.0, 0.0, frame="no_such_frame")
+        state, text, _ = robot.wait()
+        self.assertEqual(GoalStatus.ABORTED, state)
+        self.assertIn("cannot be transformed", text)
+        # ... and move_base is still working.
+        self.visit(robot, (1.2, 1.0, 0.0), "after errors")
+
+
+class CancelTest(NavTest):
+    def test_cancel_stops_the_robot(self):
+        robot = self.fleet["tb3_0"]
+        robot.send(2.8, 3.1, 0.0)
+        deadline = time.time() + 60.0
+        while robot.latest()[4] < 0.15:
+            self.assertLess(time.time(), deadline, "the robot never got moving")
+            time.sleep(0.01)
+        robot.client.cancel_goal()
+        state, _, t_cancel = robot.wait()
+        self.assertEqual(GoalStatus.PREEMPTED, state)
+        # Within 1 s of simulation time the robot stands still, and stays so for 2 s more.
+        stopped = robot.truth_at(t_cancel + 1.0)
+        self.assertLess(stopped[4], 0.01, "linear speed %.3f m/s 1 s after cancelling" % stopped[4])
+        self.assertLess(stopped[5], 0.01, "angular speed %.3f rad/s 1 s after cancelling" % stopped[5])
+        later = robot.truth_at(t_cancel + 3.0)
+        self.assertLess(math.hypot(later[1] - stopped[1], later[2] - stopped[2]), 0.005)
+
+
+class Tb3WorldTest(NavTest):
+    def test_three_goals_on_turtlebot3_map(self):
+        if not rospy.get_param("~map_available", True):
+            self.skipTest("TurtleBot3's map.yaml not found next to the repository (../shared/external/...)")
+        self.reset({"tb3_0": (-2.0, -0.5, 0.0)})
+        robot = self.fleet["tb3_0"]
+        for label, goal in (("G1", (0.5, 0.5, 0.0)), ("G2", (0.55, -1.6, -math.pi / 2)), ("G3", (-0.55, 1.6, math.pi))):
+            self.visit(robot, goal, label)
+        self.assert_no_collisions()
+
+
+CASES = {"tour": TourTest, "swap": SwapTest, "goal_errors": GoalErrorsTest, "cancel": CancelTest,
+         "tb3_world": Tb3WorldTest}
+
+if __name__ == "__main__":
+    rospy.init_node("nav_goals_test")
+    case = rospy.get_param("~case")
+    rostest.rosrun(PKG, "nav_" + case, CASES[case], sys.argv)

@@ -1,0 +1,112 @@
+"""Navigation launch files, checked without starting anything (and without the stock
+navigation packages): the stock branch of launch/include/robot_nav.launch loads move_base
+(navfn + DWA), amcl and map_server with the same parameter files and per-robot frames as the
+built-in branch; every referenced file exists; every argument is documented; the project's
+parameter files keep TurtleBot3's values."""
+import os
+import xml.etree.ElementTree as ElementTree
+
+import pytest
+import yaml
+
+roslaunch = pytest.importorskip("roslaunch")
+
+REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+TB3_PARAMS = os.path.join(REPO, "..", "shared", "external", "turtlebot3_noetic", "turtlebot3_navigation", "param")
+LAUNCH_FILES = ["launch/include/robot_nav.launch", "launch/nav.launch", "launch/nav_robots.launch"]
+
+
+@pytest.fixture(autouse=True)
+def package_path(monkeypatch):
+    """$(find marl_mrta) resolves to this checkout even without a sourced workspace."""
+    monkeypatch.setenv("ROS_PACKAGE_PATH", REPO + os.pathsep + os.environ.get("ROS_PACKAGE_PATH", ""))
+
+
+def load(launch_file, *args):
+    # (file, argv) pairs: roslaunch takes the name:=value arguments from argv.
+    config = roslaunch.config.load_config_default([(os.path.join(REPO, launch_file), ["roslaunch"] + list(args))],
+                                                  None, verbose=False)
+    nodes = {n.namespace + n.name: n for n in config.nodes}
+    params = {name: p.value for name, p in config.params.items()}
+    return nodes, params
+
+
+def test_stock_branch_launches_move_base_amcl_with_the_same_files():
+    nodes, params = load("launch/include/robot_nav.launch", "ns:=tb3_0", "nav:=stock", "localization:=amcl",
+                         "initial_pose_x:=0.5", "initial_pose_y:=4.5")
+    move_base = nodes["/tb3_0/move_base"]
+    assert (move_base.package, move_base.type) == ("move_base", "move_base")
+    amcl = nodes["/tb3_0/amcl"]
+    assert (amcl.package, amcl.type) == ("amcl", "amcl")
+    assert params["/tb3_0/move_base/base_global_planner"] == "navfn/NavfnROS"
+    assert params["/tb3_0/move_base/base_local_planner"] == "dwa_local_planner/DWAPlannerROS"
+    # TurtleBot3 Burger values from the parameter files
+    assert params["/tb3_0/move_base/DWAPlannerROS/max_vel_x"] == 0.22
+    assert params["/tb3_0/move_base/DWAPlannerROS/max_vel_theta"] == 2.75
+    assert params["/tb3_0/move_base/controller_frequency"] == 10.0
+    assert params["/tb3_0/move_base/local_costmap/rolling_window"] is True
+    assert params["/tb3_0/move_base/global_costmap/inflation_radius"] == 1.0
+    assert params["/tb3_0/move_base/local_costmap/footprint"] == [[-0.105, -0.105], [-0.105, 0.105],
+                                                                  [0.041, 0.105], [0.041, -0.105]]
+    # multi-robot frames: the shared map, everything else prefixed, no leading slash
+    assert params["/tb3_0/move_base/global_costmap/global_frame"] == "map"
+    assert params["/tb3_0/move_base/global_costmap/robot_base_frame"] == "tb3_0/base_footprint"
+    assert params["/tb3_0/move_base/local_costmap/global_frame"] == "tb3_0/odom"
+    assert params["/tb3_0/move_base/local_costmap/scan/sensor_frame"] == "tb3_0/base_scan"
+    assert params["/tb3_0/amcl/odom_frame_id"] == "tb3_0/odom"
+    assert params["/tb3_0/amcl/base_frame_id"] == "tb3_0/base_footprint"
+    assert params["/tb3_0/amcl/initial_pose_y"] == 4.5
+    assert params["/tb3_0/amcl/max_particles"] == 3000
+    # relative cmd_vel (stays in the robot namespace), the shared /map
+    remaps = dict(move_base.remap_args)
+    assert remaps["cmd_vel"] == "cmd_vel"
+    assert remaps["map"] == "/map"
+    assert dict(amcl.remap_args)["map"] == "/map"
+
+
+def test_builtin_and_stock_get_the_same_parameters():
+    _, builtin = load("launch/include/robot_nav.launch", "ns:=tb3_1", "nav:=builtin")
+    builtin_nodes, _ = load("launch/include/robot_nav.launch", "ns:=tb3_1", "nav:=builtin")
+    _, stock = load("launch/include/robot_nav.launch", "ns:=tb3_1", "nav:=stock", "localization:=fake")
+    assert builtin_nodes["/tb3_1/move_base"].package == "marl_mrta"
+    assert builtin_nodes["/tb3_1/fake_localization"].package == "marl_mrta"
+    assert builtin == stock
+    assert any(k.startswith("/tb3_1/move_base/DWAPlannerROS/") for k in builtin)
+
+
+def test_nav_launch_stock_runs_one_map_server_for_all_robots():
+    nodes, _ = load("launch/nav.launch", "robots:=3", "nav:=stock")
+    assert nodes["/map_server"].package == "map_server"
+    map_file = nodes["/map_server"].args
+    assert os.path.isfile(map_file), map_file
+    assert {"/tb3_0/move_base", "/tb3_1/move_base", "/tb3_2/move_base"} <= set(nodes)
+    assert all(nodes["/tb3_%d/move_base" % i].package == "move_base" for i in range(3))
+    nodes, _ = load("launch/nav.launch", "robots:=2", "arenas:=2", "nav:=builtin")
+    assert "/arena_1/tb3_1/move_base" in nodes
+
+
+def test_nav_auto_picks_builtin_without_move_base(monkeypatch):
+    import rospkg
+    if "move_base" in rospkg.RosPack().list():
+        pytest.skip("move_base is installed here: auto picks stock")
+    nodes, _ = load("launch/nav.launch", "robots:=1")
+    assert nodes["/map_server"].package == "marl_mrta"
+    assert nodes["/tb3_0/move_base"].package == "marl_mrta"
+
+
+@pytest.mark.parametrize("launch_file", LAUNCH_FILES)
+def test_every_argument_is_documented(launch_file):
+    root = ElementTree.parse(os.path.join(REPO, launch_file)).getroot()
+    undocumented = [a.get("name") for a in root.iter("arg") if a.get("value") is None and not a.get("doc")]
+    assert undocumented == []
+
+
+@pytest.mark.parametrize("name", ["costmap_common_params_burger.yaml", "global_costmap_params.yaml",
+                                  "local_costmap_params.yaml", "move_base_params.yaml",
+                                  "dwa_local_planner_params_burger.yaml"])
+def test_project_parameter_files_keep_turtlebot3_values(name):
+    original = os.path.join(TB3_PARAMS, name)
+    if not os.path.isfile(original):
+        pytest.skip("TurtleBot3 parameter files not found at " + TB3_PARAMS)
+    with open(original) as a, open(os.path.join(REPO, "config", "nav", name)) as b:
+        assert yaml.safe_load(a) == yaml.safe_load(b)
