@@ -33,6 +33,10 @@ foreach(node map_server move_base fake_localization)
   install(TARGETS nav_${node} RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 endforeach()
 target_sources(nav_move_base PRIVATE src/nav/nodes/move_base_ros.cpp)
+install(TARGETS marl_mrta_nav_core marl_mrta_nav_ros
+  ARCHIVE DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
+  LIBRARY DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
+  RUNTIME DESTINATION ${CATKIN_GLOBAL_BIN_DESTINATION})
 
 # Speed of the cores alone (scripts/bench_nav runs it).
 add_executable(bench_nav_core src/nav/bench_nav_core.cpp)
