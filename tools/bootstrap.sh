@@ -86,8 +86,14 @@ fi
 
 if [ ! -f "$stamp" ] || [ "$here/requirements.txt" -nt "$stamp" ]; then
   [ -x "$venv/bin/python3" ] || /usr/bin/python3 -m venv --system-site-packages "$venv"
-  "$venv/bin/python3" -m pip install -q --disable-pip-version-check --no-warn-conflicts "${torch_index[@]}" "$torch_spec"
-  "$venv/bin/python3" -m pip install -q --disable-pip-version-check --no-warn-conflicts -r "$here/requirements.txt"
+  echo "bootstrap: installing Python packages into $venv"
+  pip_install() {  # pip's notes about absent local index folders are noise here
+    "$venv/bin/python3" -m pip install -q --disable-pip-version-check --no-warn-conflicts "$@" 2>&1 \
+      | { grep -v "^WARNING: Location '.*' is ignored" || true; }
+    return "${PIPESTATUS[0]}"
+  }
+  pip_install "${torch_index[@]}" "$torch_spec"
+  pip_install -r "$here/requirements.txt"
   touch "$stamp"
 fi
 echo "bootstrap: ready ($os, venv $venv)"
