@@ -47,10 +47,10 @@ test: build
 	@cd $(WS) && $(ROS_ENV) && catkin_test_results build/test_results/marl_mrta
 
 demo: build
-	@$(ROS_ENV) && $(PKG_DIR)/tools/demo.sh
+	@$(ROS_ENV) && bash $(PKG_DIR)/tools/demo.sh
 
 bench: build
-	@$(ROS_ENV) && $(PKG_DIR)/tools/bench.sh
+	@$(ROS_ENV) && bash $(PKG_DIR)/tools/bench.sh
 
 lint:
 	@catkin_lint -W2 --strict $(PKG_DIR)

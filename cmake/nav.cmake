@@ -41,6 +41,7 @@ install(TARGETS marl_mrta_nav_core marl_mrta_nav_ros
 # Speed of the cores alone (scripts/bench_nav runs it).
 add_executable(bench_nav_core src/nav/bench_nav_core.cpp)
 target_link_libraries(bench_nav_core marl_mrta_nav_core)
+install(TARGETS bench_nav_core RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 
 if(CATKIN_ENABLE_TESTING)
   if(NOT DEFINED MARL_MRTA_GTEST_MAIN)

@@ -2,6 +2,7 @@
 
     evaluate --method random,ga,auction,exact --scenario scenarios/lab_2r.xml --episodes 20 \
              --executor embedded --seed 0 --out results/eval_lab_2r.json
+    evaluate --method exact --episodes 5 --executor ros     # through a running task manager (tasks.launch)
 
 Writes the JSON (summaries, plans, the exact reference, representative episodes) and one
 Gantt chart PNG per method (<out stem>_<method>_gantt.png). Bad input -> one line, exit 2.
@@ -22,7 +23,7 @@ from ..baselines.ga import solve_ga
 from ..baselines.plan import Plan, SchedulingInstance
 from ..baselines.random_policy import RandomPolicy
 from ..baselines.settings import load_baseline_settings
-from ..env.factory import EXECUTORS, make_env
+from ..env.factory import EXECUTORS, make_env, scenario_travel_table
 from ..env.settings import MASK_MODES
 from ..scenario import ScenarioError
 from ..tasks.config_reader import ConfigError, package_root
@@ -31,6 +32,9 @@ from .policies import LearnedPolicy, PlanPolicy, PolicyLoadError
 from .runner import ProgressLine, format_table, run_episodes, summarize
 
 METHODS = ("random", "ga", "exact", "auction", "policy")
+#: "ros": episodes run in the ROS graph through rl_task_allocation_manager's services.
+CLI_EXECUTORS = EXECUTORS + ("ros",)
+DEFAULT_SCENARIO = package_root() / "scenarios" / "lab_2r.xml"
 
 
 class UsageError(ValueError):
@@ -41,10 +45,13 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(prog="evaluate", description=__doc__.split("\n\n")[0])
     parser.add_argument("--method", required=True,
                         help=f"one or more of {', '.join(METHODS)}, comma-separated")
-    parser.add_argument("--scenario", default=str(package_root() / "scenarios" / "lab_2r.xml"),
-                        help="scenario XML file (default: scenarios/lab_2r.xml)")
+    parser.add_argument("--scenario", default=None,
+                        help="scenario XML file (default: scenarios/lab_2r.xml; with --executor ros the manager's)")
     parser.add_argument("--episodes", type=int, default=20, help="episodes per method (default 20)")
-    parser.add_argument("--executor", default="embedded", choices=EXECUTORS, help="executor (default embedded)")
+    parser.add_argument("--executor", default="embedded", choices=CLI_EXECUTORS,
+                        help="embedded, or ros: through a running rl_task_allocation_manager (default embedded)")
+    parser.add_argument("--manager", default="/rl_task_allocation_manager",
+                        help="--executor ros: the task manager node (default /rl_task_allocation_manager)")
     parser.add_argument("--profile", default=None,
                         help="embedded noise profile of config/task_embedded.yaml (default: its `profile`)")
     parser.add_argument("--mask", default=None, choices=MASK_MODES, help="action masks (default: config/task.yaml)")
@@ -54,7 +61,8 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> argparse.Namespace:
                         help="JSON output file (default results/evaluate_<scenario>_<methods>.json)")
     parser.add_argument("--no-exact", action="store_true", help="skip the exact reference (no ratio column)")
     parser.add_argument("--quiet", action="store_true", help="no progress line")
-    args = parser.parse_args(argv)
+    # roslaunch appends remappings (__name:=..., __log:=...) to a node's command line.
+    args = parser.parse_args([a for a in (sys.argv[1:] if argv is None else argv) if ":=" not in a])
     methods = [m.strip() for m in args.method.split(",") if m.strip()]
     unknown = [m for m in methods if m not in METHODS]
     if not methods or unknown:
@@ -63,8 +71,22 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> argparse.Namespace:
         raise UsageError(f"--episodes: must be at least 1, got {args.episodes}")
     if "policy" in methods and not args.policy:
         raise UsageError("--policy: the policy method needs an actor file (--policy path/to/actor.pt)")
+    if args.executor == "ros" and args.profile:
+        raise UsageError("--profile: noise profiles belong to the embedded executor (the simulator has its own)")
     args.methods = methods
     return args
+
+
+def make_ros_env(args: argparse.Namespace):
+    """The ROS executor: a client of the running task manager, checked against --scenario and --mask."""
+    from ..ros.env_client import RosTaskEnvClient
+    env = RosTaskEnvClient(args.manager)
+    if args.scenario and Path(args.scenario).resolve() != env.scenario_path:
+        raise UsageError(f"--scenario: {args.scenario} differs from the scenario the task manager runs "
+                         f"({env.scenario_path})")
+    if args.mask and args.mask != env.settings.mask:
+        raise UsageError(f"--mask: {args.mask} differs from the task manager's mask ({env.settings.mask})")
+    return env
 
 
 def plan_for(method: str, instance: SchedulingInstance, settings, seed: int) -> Plan:
@@ -92,10 +114,14 @@ def plan_json(plan: Plan, task_ids: Sequence[str]) -> Dict[str, Any]:
 
 
 def evaluate(args: argparse.Namespace) -> int:
-    env = make_env(args.scenario, args.executor, profile=args.profile, mask=args.mask, seed=args.seed)
+    if args.executor == "ros":
+        env = make_ros_env(args)
+    else:
+        env = make_env(args.scenario or DEFAULT_SCENARIO, args.executor, profile=args.profile, mask=args.mask,
+                       seed=args.seed)
     scenario = env.scenario
     settings = load_baseline_settings()
-    table = env.executor.table
+    table = scenario_travel_table(scenario)   # plans always come from the nominal travel times
     instance = SchedulingInstance.from_scenario(scenario, table, env.settings.min_step)
     task_ids = [t.id for t in scenario.tasks]
 
@@ -108,8 +134,9 @@ def evaluate(args: argparse.Namespace) -> int:
               f"{exact_plan.details.get('expansions')} expansions, {time.monotonic() - started:.2f} s", file=sys.stderr)
     exact_makespan = exact_plan.makespan if exact_plan is not None and exact_plan.proven_optimal else None
 
+    executor = "" if args.executor == "embedded" else f"{args.executor}_"
     out = Path(args.out) if args.out else (package_root() / "results"
-                                           / f"evaluate_{scenario.name}_{'_'.join(args.methods)}.json")
+                                           / f"evaluate_{executor}{scenario.name}_{'_'.join(args.methods)}.json")
     out.parent.mkdir(parents=True, exist_ok=True)
     summaries, results = [], []
     for method in args.methods:
@@ -160,8 +187,16 @@ def _json_default(value: Any) -> Any:
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
+    lost: tuple = ()
     try:
-        return evaluate(parse_args(argv))
+        args = parse_args(argv)
+        if args.executor == "ros":
+            from ..ros.env_client import ManagerUnavailable
+            lost = (ManagerUnavailable,)
+        return evaluate(args)
     except (UsageError, ScenarioError, ConfigError, PolicyLoadError) as error:
         print(f"evaluate: {error}", file=sys.stderr)
         return 2
+    except lost as error:   # the ROS graph went away mid-run
+        print(f"evaluate: {error}", file=sys.stderr)
+        return 1

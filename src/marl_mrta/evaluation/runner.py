@@ -99,7 +99,8 @@ class ProgressLine:
         rate = done / max(now - self.start, 1e-9)
         eta = (total - done) / rate if rate > 0 else 0.0
         end = "\n" if done == total else ""
-        self.stream.write(f"\r{self.label}: episode {done}/{total}  {rate:.0f} episodes/s  ETA {eta:.0f} s   {end}")
+        shown = f"{rate:.0f}" if rate >= 10 else f"{rate:.2f}"
+        self.stream.write(f"\r{self.label}: episode {done}/{total}  {shown} episodes/s  ETA {eta:.0f} s   {end}")
         self.stream.flush()
 
 

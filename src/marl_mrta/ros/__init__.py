@@ -1,0 +1,1 @@
+"""ROS shells around the ROS-free cores: executors, node classes and message conversions."""

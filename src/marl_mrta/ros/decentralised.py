@@ -1,0 +1,292 @@
+"""Decentralised execution: episodes whose every decision is taken by the robots' own actor nodes.
+
+rl_manager's `execute` mode is an orchestrator, not a policy: it resets the task manager,
+sends each robot only its own observation row on /<robot>/task_observation, collects every
+robot's /<robot>/task_choice for that step, and steps the manager with the joint action.
+The episodes run through evaluation.runner (the same statistics and table as `evaluate`).
+
+ChoiceBoard and DecentralisedPolicy are ROS-free (transport given as callables); RosActorLinks
+and execute() are the rospy side.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable, Dict, List, Optional, Sequence
+
+import numpy as np
+
+from ..env.api import StepOutput
+
+#: Topics relative to each robot's namespace.
+OBSERVATION_TOPIC = "task_observation"
+CHOICE_TOPIC = "task_choice"
+#: Name of the actor node inside a robot's namespace (launch/execute.launch).
+ACTOR_NODE = "robot_actor"
+
+
+class ActorTimeout(RuntimeError):
+    """A robot's actor did not answer (or is not there); str(error) is one line."""
+
+
+@dataclass(frozen=True)
+class ObservationRow:
+    """What one robot is sent for one decision (msg/RobotObservation.msg)."""
+
+    episode: int
+    step: int
+    episode_start: bool
+    obs: np.ndarray           # (obs_dim,) float32
+    action_mask: np.ndarray   # (n_actions,) uint8
+    agent_index: int
+
+
+class ChoiceBoard:
+    """Collects the robots' choices for the step being decided; thread-safe (subscriber callbacks)."""
+
+    def __init__(self, robot_names: Sequence[str]):
+        self.robot_names = list(robot_names)
+        self._cond = threading.Condition()
+        self._key = (-1, -1)
+        self._choices: List[Optional[int]] = [None] * len(self.robot_names)
+
+    def expect(self, episode: int, step: int) -> None:
+        """Forget earlier choices; from now on only answers to (episode, step) count."""
+        with self._cond:
+            self._key = (episode, step)
+            self._choices = [None] * len(self.robot_names)
+
+    def offer(self, robot_index: int, episode: int, step: int, action: int) -> None:
+        """A robot's answer; answers to another step (late or repeated) are ignored."""
+        with self._cond:
+            if (episode, step) != self._key:
+                return
+            self._choices[robot_index] = int(action)
+            self._cond.notify_all()
+
+    def wait(self, timeout: float, poll: float = 1.0, on_poll: Callable[[], None] = lambda: None,
+             stop: Callable[[], bool] = lambda: False) -> List[int]:
+        """Every robot's action for the expected step; on_poll() every `poll` s while waiting
+        (re-sending observations); ActorTimeout naming the silent robots after `timeout` wall s."""
+        deadline = time.monotonic() + timeout
+        with self._cond:
+            while None in self._choices:
+                remaining = deadline - time.monotonic()
+                if remaining <= 0 or stop():
+                    missing = [n for n, c in zip(self.robot_names, self._choices) if c is None]
+                    why = "shutdown" if stop() else f"no {CHOICE_TOPIC} within {timeout:g} s"
+                    raise ActorTimeout(f"{', '.join(missing)}: {why} for episode {self._key[0]} step "
+                                       f"{self._key[1]} (is each robot's {ACTOR_NODE} running?)")
+                if not self._cond.wait(min(poll, remaining)):
+                    self._cond.release()
+                    try:
+                        on_poll()
+                    finally:
+                        self._cond.acquire()
+            return [int(c) for c in self._choices]
+
+
+class DecentralisedPolicy:
+    """The evaluation runner's decision-maker interface (begin_episode, act) answered by the
+    robots' actors: each gets its own observation row, none sees another's."""
+
+    name = "decentralised"
+
+    def __init__(self, n_agents: int, send: Callable[[int, ObservationRow], None], board: ChoiceBoard,
+                 timeout: float, resend_period: float = 1.0, stop: Callable[[], bool] = lambda: False):
+        self.n_agents = n_agents
+        self.send = send
+        self.board = board
+        self.timeout = timeout
+        self.resend_period = resend_period
+        self.stop = stop
+        self.episode = -1
+        self.step = 0
+
+    def begin_episode(self, first: StepOutput, episode: Optional[int] = None) -> None:
+        self.episode = self.episode + 1 if episode is None else int(episode)
+        self.step = 0
+
+    def act(self, output: StepOutput) -> List[int]:
+        rows = [ObservationRow(episode=self.episode, step=self.step, episode_start=self.step == 0,
+                               obs=np.asarray(output.obs[i], dtype=np.float32),
+                               action_mask=np.asarray(output.action_mask[i], dtype=np.uint8),
+                               agent_index=i) for i in range(self.n_agents)]
+        self.board.expect(self.episode, self.step)
+
+        def send_all() -> None:
+            for i, row in enumerate(rows):
+                self.send(i, row)
+
+        send_all()
+        # A lost message is re-sent; the actors answer a repeated step without re-deciding.
+        actions = self.board.wait(self.timeout, self.resend_period, on_poll=send_all, stop=self.stop)
+        self.step += 1
+        return actions
+
+
+# ---------------------------------------------------------------------------------- rospy side
+
+class RosActorLinks:
+    """Publishers of /<robot>/task_observation and subscribers of /<robot>/task_choice."""
+
+    def __init__(self, namespaces: Sequence[str], board: ChoiceBoard):
+        import rospy
+        from marl_mrta.msg import RobotObservation, TaskChoice
+        self._rospy = rospy
+        self._msg = RobotObservation
+        self.namespaces = ["/" + ns.strip("/") for ns in namespaces]
+        self.publishers = [rospy.Publisher(ns + "/" + OBSERVATION_TOPIC, RobotObservation, queue_size=10)
+                           for ns in self.namespaces]
+        self.subscribers = [rospy.Subscriber(ns + "/" + CHOICE_TOPIC, TaskChoice,
+                                             lambda m, i=i: board.offer(i, m.episode, m.step, m.action), queue_size=10)
+                            for i, ns in enumerate(self.namespaces)]
+
+    def send(self, robot_index: int, row: ObservationRow) -> None:
+        self.publishers[robot_index].publish(self._msg(
+            episode=row.episode, step=row.step, episode_start=row.episode_start, obs=row.obs.tolist(),
+            action_mask=row.action_mask.tobytes(), agent_index=row.agent_index))
+
+    def wait_connected(self, timeout: float) -> None:
+        """Until every robot's actor listens and answers on its topics (both directions)."""
+        deadline = time.monotonic() + timeout
+        while not self._rospy.is_shutdown():
+            missing = [ns for ns, pub, sub in zip(self.namespaces, self.publishers, self.subscribers)
+                       if pub.get_num_connections() < 1 or sub.get_num_connections() < 1]
+            if not missing:
+                return
+            if time.monotonic() > deadline:
+                raise ActorTimeout(f"{', '.join(missing)}: no {ACTOR_NODE} connected to {OBSERVATION_TOPIC} and "
+                                   f"{CHOICE_TOPIC} after {timeout:g} s (launch/execute.launch starts one per robot)")
+            time.sleep(0.1)
+        raise ActorTimeout("shutdown while waiting for the robots' actors")
+
+
+def parse_execute_args(argv: Sequence[str]) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(prog="rl_manager execute",
+                                     description="Run episodes decided by the robots' own robot_actor nodes.")
+    parser.add_argument("--episodes", type=int, default=20, help="episodes (default 20)")
+    parser.add_argument("--seed", type=int, default=0, help="episode k is reset with seed + k (default 0)")
+    parser.add_argument("--manager", default="/rl_task_allocation_manager", help="the task manager node")
+    parser.add_argument("--choice-timeout", type=float, default=30.0,
+                        help="wall s to wait for every robot's task_choice of a step (default 30)")
+    parser.add_argument("--connect-timeout", type=float, default=120.0,
+                        help="wall s to wait for the robots' actors at start (default 120)")
+    parser.add_argument("--out", default=None,
+                        help="JSON output file (default results/execute_ros_<scenario>.json, Gantt chart beside it)")
+    parser.add_argument("--no-exact", action="store_true", help="skip the exact reference (no ratio column)")
+    args = parser.parse_args(list(argv))
+    if args.episodes < 1:
+        raise ValueError(f"--episodes: must be at least 1, got {args.episodes}")
+    for name in ("choice_timeout", "connect_timeout"):
+        if not getattr(args, name) > 0:
+            raise ValueError(f"--{name.replace('_', '-')}: must be positive, got {getattr(args, name)}")
+    return args
+
+
+def check_actor_masks(namespaces: Sequence[str], env_mask: str) -> None:
+    """Each actor node states the action-mask mode its policy was trained with (~action_mask);
+    acting under another would feed it inputs it never saw."""
+    import rospy
+    for ns in namespaces:
+        trained = rospy.get_param("/" + ns.strip("/") + "/" + ACTOR_NODE + "/action_mask", None)
+        if trained is not None and trained != env_mask:
+            raise ValueError(f"/{ns.strip('/')}/{ACTOR_NODE}/action_mask: the policy was trained with mask "
+                             f"{trained}, the task manager runs mask {env_mask} (set mask:={trained})")
+
+
+def execute(args: argparse.Namespace, log: Callable[[str], None]) -> Dict:
+    """Run args.episodes decentralised episodes, print the evaluation table, write the JSON."""
+    import rospy
+    from ..baselines.plan import SchedulingInstance
+    from ..baselines.settings import load_baseline_settings
+    from ..env.factory import scenario_travel_table
+    from ..evaluation.cli import exact_reference
+    from ..evaluation.gantt import plot_gantt
+    from ..evaluation.runner import ProgressLine, format_table, run_episodes, summarize
+    from ..tasks.config_reader import package_root
+    from .env_client import RosTaskEnvClient
+
+    env = RosTaskEnvClient(args.manager)
+    prefix = rospy.get_param(env.manager + "/robot_prefix", "")
+    namespaces = [prefix + robot.id for robot in env.scenario.robots]
+    board = ChoiceBoard(namespaces)
+    links = RosActorLinks(namespaces, board)
+    log(f"rl_manager: waiting for the actors of {', '.join(namespaces)}")
+    links.wait_connected(args.connect_timeout)
+    check_actor_masks(namespaces, env.settings.mask)
+
+    exact_makespan = None
+    if not args.no_exact:
+        instance = SchedulingInstance.from_scenario(env.scenario, scenario_travel_table(env.scenario),
+                                                    env.settings.min_step)
+        exact = exact_reference(instance, load_baseline_settings())
+        exact_makespan = exact.makespan if exact.proven_optimal else None
+
+    policy = DecentralisedPolicy(env.n_agents, links.send, board, args.choice_timeout, stop=rospy.is_shutdown)
+    started = time.monotonic()
+    records = run_episodes(env, policy, args.episodes, args.seed, ProgressLine(f"decentralised on {env.scenario.name}"))
+    seconds = time.monotonic() - started
+    summary = summarize(policy.name, records, exact_makespan)
+    print(format_table([summary]))
+
+    out = Path(args.out) if args.out else package_root() / "results" / f"execute_ros_{env.scenario.name}.json"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    gantt = out.with_name(f"{out.stem}_gantt.png")
+    plot_gantt(records[summary.representative], [t.category for t in env.scenario.tasks], gantt,
+               title=f"decentralised · {env.scenario.name}")
+    document = {
+        "scenario": str(env.scenario.source), "scenario_name": env.scenario.name, "executor": "ros",
+        "execution": "decentralised", "robots": namespaces, "mask": env.settings.mask,
+        "episodes": args.episodes, "seed": args.seed, "exact_makespan": exact_makespan,
+        "seconds": seconds, "summary": summary.as_dict(), "gantt": str(gantt),
+        "representative_episode": records[summary.representative].to_dict(),
+        "records": [{"makespan": r.makespan, "decision_steps": r.decision_steps, "complete": r.complete,
+                     "logic_consistent": r.logic_consistent, "collisions": sum(r.collisions),
+                     "tasks_per_robot": r.tasks_per_robot()} for r in records],
+    }
+    tmp = out.with_name(out.name + ".tmp")
+    tmp.write_text(json.dumps(document, indent=1, default=_json_value))
+    tmp.replace(out)
+    log(f"rl_manager: {args.episodes} episode(s) in {seconds:.1f} s wall; wrote {out} and {gantt}")
+    return document
+
+
+def _json_value(value):
+    if hasattr(value, "item"):
+        return value.item()
+    if isinstance(value, float):
+        return str(value)
+    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """rl_manager MODE [options]; the only mode is `execute`."""
+    argv = [a for a in (sys.argv[1:] if argv is None else argv) if ":=" not in a]   # roslaunch remappings
+    if not argv or argv[0] != "execute":
+        print("rl_manager: mode: give `execute` (rl_manager execute --episodes N ...)", file=sys.stderr)
+        return 2
+    try:
+        args = parse_execute_args(argv[1:])
+    except ValueError as error:
+        print(f"rl_manager: {error}", file=sys.stderr)
+        return 2
+    import rospy
+    from ..scenario import ScenarioError
+    from ..tasks.config_reader import ConfigError
+    from .env_client import ManagerUnavailable
+    rospy.init_node("rl_manager")
+    try:
+        execute(args, rospy.loginfo)
+    except (ActorTimeout, ManagerUnavailable) as error:
+        rospy.logfatal(f"rl_manager: {error}")
+        return 1
+    except (ValueError, ScenarioError, ConfigError) as error:
+        rospy.logfatal(f"rl_manager: {error}")
+        return 2
+    return 0

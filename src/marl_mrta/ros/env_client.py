@@ -1,0 +1,69 @@
+"""RosTaskEnvClient: env.api.TaskAllocationEnv over a running task manager's services.
+
+The learner, the baselines and the evaluation talk to it exactly as to an embedded
+environment: reset(seed) and step(actions) return StepOutputs (conversions.from_message),
+episode records included. The manager's `~env` parameter gives the sizes and settings.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional, Sequence
+
+import rospy
+
+from marl_mrta.srv import TaskReset, TaskStep
+
+from ..env.api import StepOutput
+from ..env.settings import TaskSettings
+from ..scenario import Scenario, load_scenario
+from .conversions import from_message
+from .sim_clock import SimulatorLost
+
+DEFAULT_MANAGER = "/rl_task_allocation_manager"
+
+
+class ManagerUnavailable(RuntimeError):
+    """The task manager is not there or failed a call; str(error) is one line."""
+
+
+class RosTaskEnvClient:
+    """A task-allocation environment whose robots are those of a running rl_task_allocation_manager."""
+
+    def __init__(self, manager: str = DEFAULT_MANAGER, wait_wall: float = 120.0):
+        self.manager = manager.rstrip("/")
+        if not rospy.core.is_initialized():
+            rospy.init_node("task_env_client", anonymous=True, disable_signals=True)
+        self._reset = rospy.ServiceProxy(self.manager + "/reset", TaskReset)
+        self._step = rospy.ServiceProxy(self.manager + "/step", TaskStep)
+        try:
+            self._reset.wait_for_service(timeout=wait_wall)
+            self._step.wait_for_service(timeout=wait_wall)
+        except rospy.ROSException:
+            raise ManagerUnavailable(f"{self.manager}: services reset/step not available after {wait_wall:.0f} s "
+                                     f"(is the task manager running? roslaunch marl_mrta tasks.launch)") from None
+        env = rospy.get_param(self.manager + "/env")
+        self.scenario: Scenario = load_scenario(env["scenario"])
+        self.settings = TaskSettings(mask=env["mask"], min_step=float(env["min_step"]),
+                                     goal_timeout=float(env["goal_timeout"]))
+        self.n_agents = int(env["n_agents"])
+        self.n_tasks = self.scenario.n_tasks
+        self.n_actions = int(env["n_actions"])
+        self.obs_dim = int(env["obs_dim"])
+        self.state_dim = int(env["state_dim"])
+
+    @property
+    def scenario_path(self) -> Path:
+        return Path(self.scenario.source).resolve()
+
+    def reset(self, seed: Optional[int] = None) -> StepOutput:
+        return self._call(self._reset, -1 if seed is None else int(seed), "reset")
+
+    def step(self, actions: Sequence[int]) -> StepOutput:
+        return self._call(self._step, [int(a) for a in actions], "step")
+
+    def _call(self, proxy, argument, what: str) -> StepOutput:
+        try:
+            response = proxy(argument)
+        except (rospy.ServiceException, SimulatorLost) as error:
+            raise ManagerUnavailable(f"{self.manager}/{what}: {str(error).splitlines()[0]}") from None
+        return from_message(response.output)

@@ -1,0 +1,177 @@
+"""The ROS executor: a decision step's goals driven through each robot's move_base.
+
+Implements env.executor.Executor, so the decision process (env/task_env.py) and every task
+rule stay the one ROS-free implementation; this class only moves robots and reports what
+happened: arrival and failure from the move_base results (their sim-time stamps), collisions
+from /simulator/collisions, poses from ground truth.
+
+Between steps the simulator is paused, so the time this node needs to think never shows in
+the world. A step starts on a tick aligned to `align_period` after every controller has
+caught up, with every goal accepted by its move_base before time runs: in lock-step the
+same joint actions then give the same robot motions whatever the machine's load.
+"""
+from __future__ import annotations
+
+import math
+from typing import List, Optional, Sequence, Tuple
+
+import rospy
+from actionlib_msgs.msg import GoalStatus
+from std_srvs.srv import Empty
+
+from ..env.executor import RobotOutcome, StepOutcome
+from ..scenario import Scenario
+from .manager_settings import RosExecutorSettings
+from .move_base_link import MoveBaseLink
+from .sim_clock import SimClock, SimulatorLost, call_bounded, wait_wall
+from .sim_link import SimulatorLink
+
+
+class RosExecutor:
+    """Executor over the simulator and the move_base nodes of one arena."""
+
+    def __init__(self, scenario: Scenario, settings: RosExecutorSettings):
+        self.scenario = scenario
+        self.settings = settings
+        self.n_robots = scenario.n_robots
+        self.namespaces = [settings.robot_prefix + robot.id for robot in scenario.robots]
+        self.sim = SimulatorLink(self.namespaces, settings.arena, settings.simulator_lost_after)
+        self.bases = [MoveBaseLink(ns, settings.map_frame) for ns in self.namespaces]
+        self.clock = SimClock(settings.simulator_lost_after, diagnose=self._diagnose)
+        self._starts = [(r.start.x, r.start.y, r.start.yaw) for r in scenario.robots]
+        self._step_start = 0.0
+        self._lost: Optional[str] = None   # set when a step was aborted: the next reset tries again
+
+    # ------------------------------------------------------------------ start-up
+
+    def wait_for_graph(self) -> None:
+        """Blocks until the simulator and every move_base answer; raises SimulatorLost if not."""
+        config = self.sim.wait_ready(self.settings.graph_wait)
+        for base in self.bases:
+            wait_wall(base.connected, self.settings.graph_wait, f"{base.server_name} did not connect")
+        rospy.loginfo("simulator at %.0f Hz%s; move_base of %s connected", config.physics_rate,
+                      ", lock-step" if config.lockstep else "", ", ".join(self.namespaces))
+
+    # ------------------------------------------------------------------ Executor
+
+    def reset(self, seed: Optional[int] = None) -> None:
+        """Robots back to the scenario's start poses: goals cancelled, costmaps cleared, simulator
+        paused on the reset state. The simulator's own noise is seeded by its `seed` parameter."""
+        del seed
+        self.sim.pause()
+        self._cancel_running()
+        # On an aligned tick, so that the controllers' costmap updates (restarted by the clearing
+        # below) keep the same phase relative to every later step start.
+        self._settle(align=True)
+        self.sim.reset(self._starts)
+        for base in self.bases:
+            base.forget()
+            service = rospy.ServiceProxy(base.server_name + "/clear_costmaps", Empty)
+            call_bounded(service, self.settings.simulator_lost_after, f"{service.resolved_name}")
+        self.sim.forget_poses()
+        tick, stamp = self.sim.step(1)   # publishes the reset state
+        self.sim.wait_caught_up(tick, stamp)
+        self._lost = None
+
+    def start_step(self, goals: Sequence[Optional[int]], time_limit: float) -> StepOutcome:
+        if self._lost is not None:
+            return self._aborted(goals, None, self._lost)
+        try:
+            t0 = self._settle(align=True)
+        except SimulatorLost as lost:
+            return self._aborted(goals, None, str(lost))
+        self._step_start = t0
+        pending = [i for i, g in enumerate(goals) if g is not None]
+        for i in pending:
+            goal = self.scenario.tasks[goals[i]].goal
+            self.bases[i].send(goal.x, goal.y, goal.yaw)
+        deadline = t0 + min(time_limit, self.settings.goal_timeout)
+        try:
+            wait_wall(lambda: all(self.bases[i].accepted for i in pending), self.settings.simulator_lost_after,
+                      lambda: "move_base of " + ", ".join(self.namespaces[i] for i in pending
+                                                          if not self.bases[i].accepted) + " did not take its goal")
+            self.sim.pause(False)
+            self.clock.wait_until(lambda: all(self.bases[i].result is not None for i in pending), deadline)
+            self.sim.pause(True)
+            self._cancel_running()
+            end = min(self._settle(align=False), deadline)
+        except SimulatorLost as lost:
+            return self._aborted(goals, t0, str(lost))
+        collisions = self.sim.collisions_between(t0, end)
+        robots = []
+        for i, goal in enumerate(goals):
+            if goal is None:
+                robots.append(RobotOutcome(has_goal=False, reached=False, nav_time=0.0, collisions=collisions[i]))
+                continue
+            result = self.bases[i].result
+            # A preempted goal is one this executor cancelled at the deadline: a timeout.
+            if result is not None and result.stamp <= deadline + 1e-9 and result.state != GoalStatus.PREEMPTED:
+                nav_time = min(max(result.stamp, t0) - t0, deadline - t0)
+                failure = "" if result.succeeded else result.describe()
+                robots.append(RobotOutcome(True, result.succeeded, nav_time, collisions[i], failure))
+            else:
+                robots.append(RobotOutcome(True, False, deadline - t0, collisions[i], "goal timeout"))
+        return StepOutcome(robots=robots)
+
+    def finish_step(self, duration: float) -> None:
+        """Lets sim time run to the step's end (service and idle time: the robots stand still)."""
+        if self._lost is not None:
+            return
+        try:
+            tick, now = self.sim.step(0)
+            rate = self.sim.config.physics_rate
+            ticks = int(math.ceil((self._step_start + duration - now) * rate - 1e-6))
+            if ticks > 0:
+                self.sim.step(ticks)
+            self._settle(align=False)
+        except SimulatorLost as lost:
+            self._lost = str(lost)   # reported as the abort of the next step
+
+    def poses(self) -> List[Tuple[float, float, float]]:
+        return [pose if pose is not None else start for pose, start in zip(self.sim.poses(), self._starts)]
+
+    # ------------------------------------------------------------------ helpers
+
+    def _settle(self, align: bool) -> float:
+        """With the simulator paused: optionally step to the next aligned tick, then wait until
+        every controller and the ground truth have caught up. Returns the sim time."""
+        tick, stamp = self.sim.step(0)
+        rate = self.sim.config.physics_rate
+        period = max(1, int(round(self.settings.align_period * rate))) if align else 1
+        ticks = (period - tick % period) % period
+        if ticks == 0 and not self.sim.has_state(tick, stamp):
+            ticks = period   # this tick's state went out before this node listened (start-up)
+        if ticks:
+            tick, stamp = self.sim.step(ticks)
+        self.sim.wait_caught_up(tick, stamp)
+        return stamp
+
+    def _cancel_running(self) -> None:
+        """Cancels every goal still running and waits until move_base has stopped it."""
+        running = [base for base in self.bases if not base.idle]
+        for base in running:
+            base.cancel()
+        wait_wall(lambda: all(base.idle for base in running), self.settings.simulator_lost_after,
+                  "move_base did not confirm a cancelled goal")
+
+    def _aborted(self, goals: Sequence[Optional[int]], t0: Optional[float], reason: str) -> StepOutcome:
+        """The step cannot go on: stop what can be stopped, report every robot as failed."""
+        self._lost = reason
+        for base in self.bases:
+            base.cancel()
+        try:
+            self.sim.pause(True)
+        except SimulatorLost:
+            pass
+        elapsed = max(0.0, self.clock.now() - t0) if t0 is not None else 0.0
+        robots = [RobotOutcome(has_goal=g is not None, reached=False, nav_time=elapsed if g is not None else 0.0,
+                               failure="aborted" if g is not None else "") for g in goals]
+        return StepOutcome(robots=robots, aborted=True, abort_reason=reason)
+
+    def _diagnose(self) -> str:
+        """Why /clock stopped: the simulator does not answer, or it waits for a controller."""
+        try:
+            tick, _ = self.sim.step(0, timeout_wall=1.0)
+        except SimulatorLost:
+            return "the simulator does not answer"
+        return f"the simulator waits at tick {tick}: {self.sim.describe_lag(tick)}"

@@ -1,0 +1,108 @@
+"""Parameters of rl_task_allocation_manager, read once and strictly (ROS-free, so pytest checks them).
+
+Defaults come from config/task_manager.yaml; the node's private parameters override them. A
+missing scenario, an unknown name, a wrong type or a value out of range is one line naming
+the parameter.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Dict, Optional, Set
+
+from ..env.settings import MASK_MODES
+from ..tasks.config_reader import ConfigError, default_config_path, read_yaml
+
+#: Private parameters the node writes itself for its clients; never read as settings.
+OUTPUT_PARAMETERS = ("env",)
+
+
+@dataclass(frozen=True)
+class RosExecutorSettings:
+    """How the executor reaches the graph (rosparams of rl_task_allocation_manager)."""
+
+    robot_prefix: str = ""              # "" or "arena_k/": namespace prefix of this arena's robots
+    arena: int = 0                      # arena index in the simulator
+    goal_timeout: float = 60.0          # s of sim time before a goal counts as failed (config/task.yaml)
+    simulator_lost_after: float = 3.0   # s of wall time without an answer -> episode aborted
+    graph_wait: float = 60.0            # s of wall time to wait for the simulator and move_base at start
+    align_period: float = 1.0           # s of sim time: steps start on multiples of it (0: no alignment)
+    map_frame: str = "map"
+
+
+@dataclass(frozen=True)
+class ManagerSettings:
+    scenario: str                  # scenario XML file
+    mask: Optional[str]            # none | finished | logic; None: config/task.yaml
+    task_config: Optional[str]     # decision-process settings file; None: config/task.yaml
+    reward_config: Optional[str]   # reward file; None: config/reward.yaml
+    marker_period: float           # s of wall time between marker refreshes while robots drive; 0: on changes only
+    executor: RosExecutorSettings
+
+
+class _Params:
+    """Typed reads of one parameter namespace, remembering which names were read."""
+
+    def __init__(self, values: Dict[str, Any], namespace: str):
+        self.values = values
+        self.namespace = namespace
+        self.used: Set[str] = set()
+
+    def fail(self, key: str, problem: str) -> ConfigError:
+        return ConfigError(f"{self.namespace}/{key}: {problem}")
+
+    def string(self, key: str, allow_empty: bool = True) -> str:
+        self.used.add(key)
+        value = self.values.get(key)
+        if not isinstance(value, str) or (not allow_empty and not value):
+            raise self.fail(key, f"expected a {'' if allow_empty else 'non-empty '}string, got {value!r}")
+        return value
+
+    def integer(self, key: str, minimum: int) -> int:
+        self.used.add(key)
+        value = self.values.get(key)
+        if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
+            raise self.fail(key, f"expected an integer >= {minimum}, got {value!r}")
+        return value
+
+    def number(self, key: str, minimum: float, strictly: bool = False) -> float:
+        self.used.add(key)
+        value = self.values.get(key)
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or value < minimum \
+                or (strictly and value == minimum):
+            raise self.fail(key, f"expected a number {'>' if strictly else '>='} {minimum:g}, got {value!r}")
+        return float(value)
+
+    def check_all_used(self) -> None:
+        for key in self.values:
+            if key not in self.used:
+                raise self.fail(key, f"unknown parameter (known: {', '.join(sorted(self.used))})")
+
+
+def read_manager_settings(params: Dict[str, Any], namespace: str,
+                          defaults_file: Optional[Path] = None) -> ManagerSettings:
+    """`params`: the node's private parameters; `namespace`: its name, e.g. /rl_task_allocation_manager."""
+    if params.get("scenario") in ("", None):
+        raise ConfigError(f"{namespace}/scenario: missing: give the scenario XML file "
+                          f"(roslaunch marl_mrta task_manager.launch scenario:=...)")
+    values = dict(read_yaml(defaults_file or default_config_path("task_manager.yaml")).data)
+    values.update({k: v for k, v in params.items() if k not in OUTPUT_PARAMETERS})
+    p = _Params(values, namespace)
+    scenario = p.string("scenario", allow_empty=False)
+    mask = p.string("mask")
+    if mask and mask not in MASK_MODES:
+        raise p.fail("mask", f"{mask!r} is not one of {', '.join(MASK_MODES)} (or empty: config/task.yaml)")
+    prefix = p.string("robot_prefix")
+    if prefix and (not prefix.endswith("/") or prefix.startswith("/")):
+        raise p.fail("robot_prefix", f"{prefix!r} must be empty or a relative namespace ending in '/' (arena_1/)")
+    executor = RosExecutorSettings(
+        robot_prefix=prefix, arena=p.integer("arena", 0),
+        simulator_lost_after=p.number("simulator_lost_after", 0.0, strictly=True),
+        graph_wait=p.number("graph_wait", 0.0, strictly=True),
+        align_period=p.number("align_period", 0.0),
+        map_frame=p.string("map_frame", allow_empty=False))
+    settings = ManagerSettings(scenario=scenario, mask=mask or None, task_config=p.string("task_config") or None,
+                               reward_config=p.string("reward_config") or None,
+                               marker_period=p.number("marker_period", 0.0), executor=executor)
+    p.check_all_used()
+    return settings

@@ -1,0 +1,116 @@
+"""One robot's move_base, spoken to over the actionlib wire protocol (MoveBaseAction topics).
+
+The topics `goal`, `cancel`, `status` and `result` under `<ns>/move_base` are used directly
+rather than through actionlib's SimpleActionClient because the executor needs the sim time at
+which move_base finished a goal (the result's header stamp), not the later moment at which this
+node happened to process the result. Works with the stock and the built-in move_base alike.
+"""
+from __future__ import annotations
+
+import itertools
+import math
+import threading
+import time
+from dataclasses import dataclass
+from typing import Optional
+
+import rospy
+from actionlib_msgs.msg import GoalID, GoalStatus, GoalStatusArray
+from move_base_msgs.msg import MoveBaseActionGoal, MoveBaseActionResult
+
+_TERMINAL = {GoalStatus.PREEMPTED, GoalStatus.SUCCEEDED, GoalStatus.ABORTED, GoalStatus.REJECTED,
+             GoalStatus.RECALLED, GoalStatus.LOST}
+_STATE_NAMES = {v: k for k, v in vars(GoalStatus).items() if k.isupper() and isinstance(v, int)}
+_ids = itertools.count()
+
+
+def yaw_to_quaternion(yaw: float):
+    return 0.0, 0.0, math.sin(yaw / 2.0), math.cos(yaw / 2.0)
+
+
+@dataclass(frozen=True)
+class GoalResult:
+    state: int          # actionlib_msgs/GoalStatus value
+    text: str           # move_base's status text, e.g. "Goal reached." or why it aborted
+    stamp: float        # sim time at which move_base finished the goal
+
+    @property
+    def succeeded(self) -> bool:
+        return self.state == GoalStatus.SUCCEEDED
+
+    def describe(self) -> str:
+        name = _STATE_NAMES.get(self.state, str(self.state))
+        return f"move_base {name.lower()}" + (f": {self.text}" if self.text else "")
+
+
+class MoveBaseLink:
+    """Sends one goal at a time to `<namespace>/move_base` and records how it ended."""
+
+    def __init__(self, namespace: str, frame_id: str):
+        self.namespace = namespace
+        self.frame_id = frame_id
+        self.goal_id: Optional[str] = None
+        self.accepted = False
+        self.result: Optional[GoalResult] = None
+        self._status_seen = False
+        self._lock = threading.Lock()
+        base = namespace + "/move_base"
+        self._goal_pub = rospy.Publisher(base + "/goal", MoveBaseActionGoal, queue_size=10)
+        self._cancel_pub = rospy.Publisher(base + "/cancel", GoalID, queue_size=10)
+        rospy.Subscriber(base + "/status", GoalStatusArray, self._on_status, queue_size=10)
+        rospy.Subscriber(base + "/result", MoveBaseActionResult, self._on_result, queue_size=10)
+
+    @property
+    def server_name(self) -> str:
+        return self.namespace + "/move_base"
+
+    def connected(self) -> bool:
+        """move_base listens to goals and cancels and has published its status."""
+        return (self._status_seen and self._goal_pub.get_num_connections() > 0
+                and self._cancel_pub.get_num_connections() > 0)
+
+    def send(self, x: float, y: float, yaw: float) -> None:
+        goal = MoveBaseActionGoal()
+        now = rospy.Time.now()
+        goal_id = f"{rospy.get_name()}/{self.namespace}/{next(_ids)}-{time.time_ns()}"
+        goal.header.stamp = now
+        goal.goal_id.id, goal.goal_id.stamp = goal_id, now
+        target = goal.goal.target_pose
+        target.header.frame_id, target.header.stamp = self.frame_id, now
+        target.pose.position.x, target.pose.position.y = x, y
+        o = target.pose.orientation
+        o.x, o.y, o.z, o.w = yaw_to_quaternion(yaw)
+        with self._lock:
+            self.goal_id, self.accepted, self.result = goal_id, False, None
+        self._goal_pub.publish(goal)
+
+    def cancel(self) -> None:
+        """Cancels the current goal if it is still running."""
+        with self._lock:
+            goal_id = self.goal_id if self.result is None else None
+        if goal_id is not None:
+            self._cancel_pub.publish(GoalID(id=goal_id))
+
+    def forget(self) -> None:
+        with self._lock:
+            self.goal_id, self.accepted, self.result = None, False, None
+
+    @property
+    def idle(self) -> bool:
+        """No goal, or the goal has ended."""
+        with self._lock:
+            return self.goal_id is None or self.result is not None
+
+    def _on_status(self, msg: GoalStatusArray) -> None:
+        with self._lock:
+            self._status_seen = True
+            for status in msg.status_list:
+                if status.goal_id.id == self.goal_id and status.status != GoalStatus.PENDING:
+                    self.accepted = True
+
+    def _on_result(self, msg: MoveBaseActionResult) -> None:
+        with self._lock:
+            if msg.status.goal_id.id != self.goal_id or self.result is not None:
+                return
+            self.accepted = True
+            self.result = GoalResult(msg.status.status, msg.status.text, msg.header.stamp.to_sec())

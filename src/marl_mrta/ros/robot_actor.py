@@ -1,0 +1,70 @@
+"""One robot's decision maker at run time (decentralised execution, scripts/robot_actor).
+
+RobotActor holds a trained actor (mappo.policy.load_policy) and this robot's own recurrent
+state; it sees only this robot's observation and answers with this robot's task. No rospy
+here: the node shell feeds it RobotObservation messages and publishes its TaskChoice.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional, Sequence, Tuple
+
+import numpy as np
+
+
+class ObservationError(ValueError):
+    """An observation this actor cannot act on; str(error) is one line naming the field."""
+
+
+@dataclass(frozen=True)
+class Decision:
+    """This robot's answer to one observation."""
+
+    episode: int
+    step: int
+    action: int
+    repeated: bool   # the same (episode, step) was already answered: the stored action, state unchanged
+
+
+class RobotActor:
+    """A shared actor acting for robot `agent_index` only, with its own GRU hidden state."""
+
+    def __init__(self, policy, agent_index: int):
+        if not 0 <= agent_index < policy.n_agents:
+            raise ObservationError(f"agent_index: {agent_index} outside 0..{policy.n_agents - 1} "
+                                   f"(the actor was trained for {policy.n_agents} robots)")
+        self.policy = policy
+        self.agent_index = agent_index
+        self.hidden = policy.initial_hidden(1)
+        self._last: Optional[Decision] = None
+
+    def decide(self, episode: int, step: int, episode_start: bool, obs: Sequence[float],
+               action_mask: Sequence[int], agent_index: int) -> Decision:
+        """One decision. A repeated (episode, step), e.g. a re-sent observation, gets the same
+        answer without advancing the recurrent state; episode_start resets it first."""
+        if self._last is not None and (self._last.episode, self._last.step) == (episode, step):
+            return Decision(episode, step, self._last.action, repeated=True)
+        if agent_index != self.agent_index:
+            raise ObservationError(f"agent_index: observation for robot {agent_index}, this actor is robot "
+                                   f"{self.agent_index}")
+        obs_row, mask_row = self._rows(obs, action_mask)
+        if episode_start:
+            self.hidden = self.policy.initial_hidden(1)
+        actions, self.hidden = self.policy.act(obs_row, mask_row, self.hidden, deterministic=True,
+                                               agent_ids=[self.agent_index])
+        self._last = Decision(episode, step, int(actions[0]), repeated=False)
+        return self._last
+
+    def _rows(self, obs: Sequence[float], action_mask: Sequence[int]) -> Tuple[np.ndarray, Optional[np.ndarray]]:
+        obs_row = np.asarray(obs, dtype=np.float32).reshape(1, -1)
+        if obs_row.shape[1] != self.policy.obs_dim:
+            raise ObservationError(f"obs: {obs_row.shape[1]} values, the actor expects {self.policy.obs_dim}")
+        mask = np.frombuffer(bytes(action_mask), dtype=np.uint8) if isinstance(action_mask, (bytes, bytearray)) \
+            else np.asarray(action_mask, dtype=np.uint8)
+        if mask.size == 0:
+            return obs_row, None
+        if mask.size != self.policy.n_actions:
+            raise ObservationError(f"action_mask: {mask.size} values, the actor has {self.policy.n_actions} actions")
+        if not mask.any():
+            raise ObservationError("action_mask: no action allowed")
+        return obs_row, mask.astype(bool).reshape(1, -1)

@@ -1,0 +1,204 @@
+"""The simulator as the ROS executor uses it (docs/simulator.md): pause, step, reset, the
+lock-step answers of the robots' controllers, ground truth and collision events.
+
+Every service call is bounded in wall time, so a simulator that is gone or hangs raises
+SimulatorLost instead of blocking the task manager.
+"""
+from __future__ import annotations
+
+import math
+import threading
+from dataclasses import dataclass
+from typing import List, Optional, Sequence, Tuple
+
+import rospy
+from geometry_msgs.msg import Pose2D as Pose2DMsg
+from nav_msgs.msg import Odometry
+from std_srvs.srv import SetBool
+
+from marl_mrta.msg import CollisionEvent, LockstepAck
+from marl_mrta.srv import ResetSim, ResetSimRequest, StepSim
+
+from .sim_clock import SimulatorLost, call_bounded, wait_wall
+
+SIMULATOR = "/simulator"
+
+
+def quaternion_to_yaw(q) -> float:
+    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+
+
+@dataclass(frozen=True)
+class SimulatorConfig:
+    """What the executor needs to know of the running simulator (its private parameters)."""
+
+    physics_rate: float
+    lockstep: bool
+    lockstep_robots: Tuple[str, ...]   # empty: every robot
+    robots: int                        # per arena
+    arenas: int
+
+    def robot_names(self) -> List[str]:
+        """Namespaces of every simulated robot (docs/architecture.md)."""
+        if self.arenas == 1:
+            return [f"tb3_{i}" for i in range(self.robots)]
+        return [f"arena_{k}/tb3_{i}" for k in range(self.arenas) for i in range(self.robots)]
+
+    def answers_lockstep(self, robot: str) -> bool:
+        return self.lockstep and (not self.lockstep_robots or robot in self.lockstep_robots)
+
+
+def read_simulator_config() -> SimulatorConfig:
+    """The simulator's parameters; raises SimulatorLost when it has not published them."""
+    try:
+        params = rospy.get_param(SIMULATOR)
+    except KeyError:
+        raise SimulatorLost(f"no parameters under {SIMULATOR}: is the simulator running?") from None
+    listed = params.get("lockstep_robots", [])
+    if isinstance(listed, str):
+        listed = listed.replace(",", " ").split()
+    return SimulatorConfig(physics_rate=float(params.get("physics_rate", 20.0)),
+                           lockstep=bool(params.get("lockstep", False)), lockstep_robots=tuple(listed),
+                           robots=int(params.get("robots", 2)), arenas=int(params.get("arenas", 1)))
+
+
+class SimulatorLink:
+    """Services and state of the simulator for the robots of one arena (namespaces `robots`)."""
+
+    def __init__(self, robots: Sequence[str], arena: int, answer_wall: float):
+        self.robots = list(robots)
+        self.arena = arena
+        self.answer_wall = answer_wall
+        self.config: Optional[SimulatorConfig] = None
+        self._index = {ns: i for i, ns in enumerate(self.robots)}
+        self._lock = threading.Lock()
+        self._truth: List[Optional[Tuple[float, Tuple[float, float, float]]]] = [None] * len(self.robots)
+        self._acked = [-1] * len(self.robots)
+        self._collisions: List[Tuple[float, int]] = []   # (sim time, robot index)
+        self._reset = rospy.ServiceProxy(SIMULATOR + "/reset", ResetSim)
+        self._pause = rospy.ServiceProxy(SIMULATOR + "/pause", SetBool)
+        self._step = rospy.ServiceProxy(SIMULATOR + "/step", StepSim)
+        for i, ns in enumerate(self.robots):
+            rospy.Subscriber(ns + "/base_pose_ground_truth", Odometry, self._on_truth, i, queue_size=5,
+                             tcp_nodelay=True)
+        rospy.Subscriber(SIMULATOR + "/lockstep_ack", LockstepAck, self._on_ack, queue_size=100, tcp_nodelay=True)
+        rospy.Subscriber(SIMULATOR + "/collisions", CollisionEvent, self._on_collision, queue_size=100)
+
+    # ------------------------------------------------------------------ start-up
+
+    def wait_ready(self, timeout_wall: float) -> SimulatorConfig:
+        """Waits for the simulator's services; checks that it simulates this arena's robots."""
+        for proxy in (self._reset, self._pause, self._step):
+            try:
+                proxy.wait_for_service(timeout=timeout_wall)
+            except rospy.ROSException:
+                raise SimulatorLost(f"service {proxy.resolved_name} is not available after "
+                                    f"{timeout_wall:.0f} s: is the simulator running?") from None
+        config = read_simulator_config()
+        if config.robots != len(self.robots):
+            raise SimulatorLost(f"the simulator runs {config.robots} robots per arena, the scenario has "
+                                f"{len(self.robots)} (start the simulator with robots:={len(self.robots)})")
+        known = config.robot_names()
+        unknown = [ns for ns in self.robots if ns not in known]
+        if unknown:
+            raise SimulatorLost(f"the simulator has no robot {', '.join(unknown)} (it simulates {', '.join(known)}; "
+                                f"its `robots` must match the scenario)")
+        self.config = config
+        return config
+
+    # ------------------------------------------------------------------ services
+
+    def pause(self, paused: bool = True) -> None:
+        response = call_bounded(lambda: self._pause(paused), self.answer_wall,
+                                f"{SIMULATOR}/pause {str(paused).lower()}")
+        if not response.success:
+            raise SimulatorLost(f"{SIMULATOR}/pause refused: {response.message}")
+
+    def step(self, ticks: int = 0, timeout_wall: Optional[float] = None) -> Tuple[int, float]:
+        """Advances a paused simulator by `ticks` (0: none); returns (tick, sim time) reached."""
+        response = call_bounded(lambda: self._step(ticks), timeout_wall or self.answer_wall,
+                                f"{SIMULATOR}/step {ticks}")
+        return int(response.tick), response.stamp.to_sec()
+
+    def reset(self, poses: Sequence[Tuple[float, float, float]]) -> None:
+        """This arena's robots to `poses` (map frame), which become their start poses."""
+        request = ResetSimRequest(arena=self.arena, robots=self.robots,
+                                  poses=[Pose2DMsg(x, y, yaw) for x, y, yaw in poses])
+        response = call_bounded(lambda: self._reset(request), self.answer_wall, f"{SIMULATOR}/reset")
+        if not response.success:
+            raise SimulatorLost(f"{SIMULATOR}/reset refused: {response.message}")
+
+    # ------------------------------------------------------------------ state
+
+    def has_state(self, tick: int, stamp: float) -> bool:
+        """Every robot's ground truth of `stamp` has arrived and, in lock-step, every controller
+        has answered `tick` (so it has seen everything up to it)."""
+        config = self.config
+        with self._lock:
+            return (all(t is not None and t[0] >= stamp - 1e-9 for t in self._truth)
+                    and all(self._acked[i] >= tick for i, ns in enumerate(self.robots)
+                            if config is not None and config.answers_lockstep(ns)))
+
+    def wait_caught_up(self, tick: int, stamp: float) -> None:
+        """Waits until has_state(tick, stamp)."""
+        try:
+            wait_wall(lambda: self.has_state(tick, stamp), self.answer_wall,
+                      f"ground truth and lock-step answers of tick {tick}")
+        except SimulatorLost as lost:
+            raise SimulatorLost(f"{lost}; {self.describe_lag(tick, stamp)}") from None
+
+    def describe_lag(self, tick: int, stamp: Optional[float] = None) -> str:
+        """Which robots have not answered `tick` (or sent ground truth of `stamp`)."""
+        config = self.config
+        with self._lock:
+            silent = [ns for i, ns in enumerate(self.robots)
+                      if config is not None and config.answers_lockstep(ns) and self._acked[i] < tick]
+            no_truth = [ns for i, ns in enumerate(self.robots)
+                        if stamp is not None and (self._truth[i] is None or self._truth[i][0] < stamp - 1e-9)]
+        parts = []
+        if silent:
+            parts.append("no lock-step answer from the controller (move_base) of " + ", ".join(silent))
+        if no_truth:
+            parts.append("no ground truth from the simulator for " + ", ".join(no_truth))
+        return "; ".join(parts) or "every robot answered"
+
+    def last_answered(self) -> int:
+        with self._lock:
+            return min(self._acked) if self._acked else -1
+
+    def poses(self) -> List[Optional[Tuple[float, float, float]]]:
+        with self._lock:
+            return [t[1] if t is not None else None for t in self._truth]
+
+    def forget_poses(self) -> None:
+        with self._lock:
+            self._truth = [None] * len(self.robots)
+
+    def collisions_between(self, start: float, end: float) -> List[int]:
+        """Collision events per robot with start < sim time <= end."""
+        counts = [0] * len(self.robots)
+        with self._lock:
+            for stamp, robot in self._collisions:
+                if start < stamp <= end + 1e-9:
+                    counts[robot] += 1
+            self._collisions = [c for c in self._collisions if c[0] > end]
+        return counts
+
+    # ------------------------------------------------------------------ callbacks
+
+    def _on_truth(self, msg: Odometry, robot: int) -> None:
+        p = msg.pose.pose
+        with self._lock:
+            self._truth[robot] = (msg.header.stamp.to_sec(), (p.position.x, p.position.y, quaternion_to_yaw(p.orientation)))
+
+    def _on_ack(self, msg: LockstepAck) -> None:
+        robot = self._index.get(msg.robot)
+        if robot is not None:
+            with self._lock:
+                self._acked[robot] = max(self._acked[robot], int(msg.tick))
+
+    def _on_collision(self, msg: CollisionEvent) -> None:
+        robot = self._index.get(msg.robot)
+        if robot is not None and msg.arena == self.arena:
+            with self._lock:
+                self._collisions.append((msg.stamp.to_sec(), robot))

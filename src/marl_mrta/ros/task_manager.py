@@ -1,0 +1,180 @@
+"""rl_task_allocation_manager: the decision process of one arena on the ROS graph.
+
+A thin shell: the scenario, task rules, reward and episode logic are the ROS-free
+env.task_env.TaskEnvironment; this class gives it a RosExecutor, serves `~reset` and
+`~step`, publishes the paper's topics and the rviz markers, and writes `~env` (the
+environment's sizes and settings) for clients such as ros/env_client.py.
+"""
+from __future__ import annotations
+
+import threading
+from dataclasses import replace
+from typing import List, Optional, Sequence
+
+import rospy
+from geometry_msgs.msg import PoseStamped
+from visualization_msgs.msg import MarkerArray
+
+from marl_mrta.msg import IdleTime, TaskAssignment, TaskReached
+from marl_mrta.srv import TaskReset, TaskResetResponse, TaskStep, TaskStepResponse
+
+from ..env.api import StepOutput
+from ..env.factory import make_env
+from ..env.settings import load_task_settings
+from ..scenario import load_scenario
+from .conversions import to_message
+from .executor import RosExecutor
+from .manager_settings import ManagerSettings
+from .markers import task_markers
+from .move_base_link import yaw_to_quaternion
+from .sim_clock import SimulatorLost
+
+
+class TaskManagerNode:
+    """Owns one TaskEnvironment over a RosExecutor; services and topics around it."""
+
+    def __init__(self, settings: ManagerSettings):
+        self.settings = settings
+        self.scenario = load_scenario(settings.scenario)
+        task_settings = load_task_settings(settings.task_config)
+        self.executor = RosExecutor(self.scenario, replace(settings.executor, goal_timeout=task_settings.goal_timeout))
+        self.env = make_env(self.scenario, executor=self.executor, mask=settings.mask,
+                            task_config=settings.task_config, reward_config=settings.reward_config)
+        self.robot_ns = self.executor.namespaces
+        self._lock = threading.Lock()
+        self._episode_running = False
+        self._driving = threading.Event()
+        self._marker_lock = threading.Lock()
+        self._assigned: List[Optional[int]] = [None] * self.scenario.n_robots
+        self.pub_assigned = rospy.Publisher("Global_assigned_task", TaskAssignment, queue_size=10, latch=True)
+        self.pub_reached = rospy.Publisher("Global_reached_task", TaskReached, queue_size=50)
+        self.pub_idle = rospy.Publisher("idle_time", IdleTime, queue_size=10)
+        self.pub_goal = [rospy.Publisher(ns + "/goal", PoseStamped, queue_size=1, latch=True) for ns in self.robot_ns]
+        self.pub_markers = rospy.Publisher("task_markers", MarkerArray, queue_size=1, latch=True)
+
+    def start(self) -> None:
+        """Waits for the graph, puts the robots on their start poses, then serves."""
+        self.executor.wait_for_graph()
+        self.env.reset()
+        env = self.env
+        rospy.set_param("~env", {
+            "scenario": str(self.scenario.source.resolve()), "robots": self.robot_ns,
+            "n_agents": env.n_agents, "n_actions": env.n_actions, "obs_dim": env.obs_dim,
+            "state_dim": env.state_dim, "mask": env.settings.mask, "min_step": env.settings.min_step,
+            "goal_timeout": env.settings.goal_timeout})
+        rospy.Service("~reset", TaskReset, self._on_reset)
+        rospy.Service("~step", TaskStep, self._on_step)
+        self._publish_markers()
+        if self.settings.marker_period > 0.0:
+            threading.Thread(target=self._refresh_markers, daemon=True, name="markers").start()
+        rospy.loginfo("rl_task_allocation_manager: scenario %s (%s), %d robots, %d tasks, mask %s: ready",
+                      self.scenario.name, self.scenario.source, self.scenario.n_robots, self.scenario.n_tasks,
+                      env.settings.mask)
+
+    # ------------------------------------------------------------------ services
+
+    def _on_reset(self, request) -> TaskResetResponse:
+        with self._lock:
+            self._episode_running = False
+            self._assigned = [None] * self.scenario.n_robots
+            try:
+                output = self.env.reset(None if request.seed < 0 else int(request.seed))
+            except SimulatorLost as lost:
+                rospy.logerr("reset failed: %s", lost)
+                raise rospy.ServiceException(f"reset failed: {lost}") from None
+            self._episode_running = True
+            self._publish_markers()
+            rospy.loginfo("episode reset (seed %d): robots on their start poses", request.seed)
+            return TaskResetResponse(output=to_message(output))
+
+    def _on_step(self, request) -> TaskStepResponse:
+        with self._lock:
+            actions = list(request.actions)
+            problem = self._check_actions(actions)
+            if problem:
+                rospy.logerr("step refused: %s", problem)
+                raise rospy.ServiceException(problem)
+            goals = [None if a == self.scenario.n_tasks else int(a) for a in actions]
+            self._publish_assignment(goals)
+            self._driving.set()
+            try:
+                output = self.env.step(actions)
+            finally:
+                with self._marker_lock:
+                    self._driving.clear()
+            self._publish_results(output)
+            if output.done or output.truncated:
+                self._episode_running = False
+                self._log_end(output)
+            return TaskStepResponse(output=to_message(output))
+
+    def _check_actions(self, actions: Sequence[int]) -> str:
+        if not self._episode_running:
+            return "no episode running: call reset first"
+        if len(actions) != self.scenario.n_robots:
+            return f"actions: expected {self.scenario.n_robots} values, got {len(actions)}"
+        bad = [a for a in actions if not 0 <= a <= self.scenario.n_tasks]
+        return f"actions: {bad} outside 0..{self.scenario.n_tasks} ({self.scenario.n_tasks} = None)" if bad else ""
+
+    @staticmethod
+    def _log_end(output: StepOutput) -> None:
+        record = output.info["episode"]
+        if "abort_reason" in output.info:
+            rospy.logerr("episode aborted at %.1f s after %d steps: %s", record.makespan,
+                         record.decision_steps, output.info["abort_reason"])
+        else:
+            rospy.loginfo("episode %s: makespan %.2f s, %d steps, %s", "complete" if output.done else "timed out",
+                          record.makespan, record.decision_steps,
+                          "logic-consistent" if record.logic_consistent else "not logic-consistent")
+
+    # ------------------------------------------------------------------ topics
+
+    def _publish_assignment(self, goals: Sequence[Optional[int]]) -> None:
+        now = rospy.Time.now()
+        tasks = self.scenario.tasks
+        self._assigned = list(goals)
+        self.pub_assigned.publish(TaskAssignment(stamp=now, step=self.env.step_index, robots=self.robot_ns,
+                                                 tasks=[tasks[g].id if g is not None else "" for g in goals]))
+        for publisher, goal in zip(self.pub_goal, goals):
+            if goal is None:
+                continue
+            msg = PoseStamped()
+            msg.header.stamp, msg.header.frame_id = now, self.settings.executor.map_frame
+            pose = tasks[goal].goal
+            msg.pose.position.x, msg.pose.position.y = pose.x, pose.y
+            o = msg.pose.orientation
+            o.x, o.y, o.z, o.w = yaw_to_quaternion(pose.yaw)
+            publisher.publish(msg)
+        self._publish_markers()
+
+    def _publish_results(self, output: StepOutput) -> None:
+        now = rospy.Time.now()
+        info = output.info
+        for i, (task, order) in enumerate(zip(info["finished_task"], info["finish_order"])):
+            if task is None:
+                continue
+            self.pub_reached.publish(TaskReached(stamp=now, robot=self.robot_ns[i], task=self.scenario.tasks[task].id,
+                                                 order=int(order), logic_correct=bool(info["correct_order"][i])))
+        self.pub_idle.publish(IdleTime(stamp=now, step=int(info["step"]), robots=self.robot_ns,
+                                       idle_time=[float(t) for t in info["idle_time"]]))
+        self._assigned = [None] * self.scenario.n_robots
+        self._publish_markers()
+
+    def _publish_markers(self, only_while_driving: bool = False) -> None:
+        with self._marker_lock:   # the refresh thread never publishes an older state after a newer one
+            if only_while_driving and not self._driving.is_set():
+                return
+            env = self.env
+            xy = [(p[0], p[1]) for p in self.executor.poses()]
+            self.pub_markers.publish(task_markers(self.scenario, self.settings.executor.map_frame, rospy.Time.now(),
+                                                  list(env.finished), list(env.task_correct), list(self._assigned),
+                                                  xy))
+
+    def _refresh_markers(self) -> None:
+        """Robot -> goal lines follow the robots while they drive."""
+        period = self.settings.marker_period
+        while not rospy.is_shutdown():
+            self._driving.wait(1.0)
+            if self.pub_markers.get_num_connections() > 0:
+                self._publish_markers(only_while_driving=True)
+            rospy.rostime.wallsleep(period)

@@ -1,0 +1,49 @@
+"""Parameters of rl_task_allocation_manager: defaults from config/task_manager.yaml, every bad
+value one line naming the parameter."""
+import pytest
+
+from marl_mrta.ros.manager_settings import read_manager_settings
+from marl_mrta.tasks.config_reader import ConfigError, default_config_path, read_yaml
+
+NODE = "/rl_task_allocation_manager"
+
+
+def test_defaults_come_from_the_config_file():
+    defaults = read_yaml(default_config_path("task_manager.yaml")).data
+    settings = read_manager_settings({"scenario": "lab.xml"}, NODE)
+    assert settings.scenario == "lab.xml"
+    assert settings.mask is None and settings.task_config is None and settings.reward_config is None
+    assert settings.executor.simulator_lost_after == defaults["simulator_lost_after"]
+    assert settings.executor.align_period == defaults["align_period"]
+    assert settings.executor.graph_wait == defaults["graph_wait"]
+    assert settings.marker_period == defaults["marker_period"]
+    assert settings.executor.map_frame == "map" and settings.executor.robot_prefix == ""
+
+
+def test_parameters_override_defaults_and_the_output_parameter_is_ignored():
+    settings = read_manager_settings({"scenario": "s.xml", "mask": "logic", "arena": 2, "robot_prefix": "arena_2/",
+                                      "simulator_lost_after": 1, "env": {"n_agents": 2}}, NODE)
+    assert settings.mask == "logic"
+    assert settings.executor.arena == 2 and settings.executor.robot_prefix == "arena_2/"
+    assert settings.executor.simulator_lost_after == 1.0
+
+
+@pytest.mark.parametrize("params, message", [
+    ({}, NODE + "/scenario: missing: give the scenario XML file"),
+    ({"scenario": ""}, NODE + "/scenario: missing"),
+    ({"scenario": "s.xml", "mask": "often"}, NODE + "/mask: 'often' is not one of none, finished, logic"),
+    ({"scenario": "s.xml", "arena": -1}, NODE + "/arena: expected an integer >= 0, got -1"),
+    ({"scenario": "s.xml", "arena": True}, NODE + "/arena: expected an integer >= 0, got True"),
+    ({"scenario": "s.xml", "simulator_lost_after": 0}, NODE + "/simulator_lost_after: expected a number > 0, got 0"),
+    ({"scenario": "s.xml", "align_period": "1s"}, NODE + "/align_period: expected a number >= 0, got '1s'"),
+    ({"scenario": "s.xml", "robot_prefix": "arena_1"}, NODE + "/robot_prefix: 'arena_1' must be empty or"),
+    ({"scenario": "s.xml", "robot_prefix": "/arena_1/"}, NODE + "/robot_prefix: '/arena_1/' must be empty or"),
+    ({"scenario": "s.xml", "map_frame": ""}, NODE + "/map_frame: expected a non-empty string, got ''"),
+    ({"scenario": "s.xml", "goal_timeout": 5.0}, NODE + "/goal_timeout: unknown parameter"),
+])
+def test_bad_parameters_give_one_line(params, message):
+    with pytest.raises(ConfigError) as error:
+        read_manager_settings(params, NODE)
+    text = str(error.value)
+    assert text.startswith(message)
+    assert "\n" not in text
