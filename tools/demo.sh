@@ -14,6 +14,8 @@ roslaunch marl_mrta sim_demo.launch output:="$out/sim_demo.json" 2>&1 | grep -v 
 test -s "$out/sim_demo.json" || { echo "demo: the simulator demo wrote no figures" >&2; exit 1; }
 
 echo "== 2/3 MAPPO training (embedded executor, preset tuned)"
+# Each demo trains afresh; runs of your own (scripts/train --out ...) are resumable instead.
+rm -rf "$out/train"
 rosrun marl_mrta train --scenario "$scenario" --preset tuned --seed 0 --out "$out/train"
 
 echo "== 3/3 evaluation: random, GA, auction, exact, then the learned policy (with the masks it was trained with)"
