@@ -31,8 +31,14 @@ LocalController::LocalController(const DwaConfig& config) : planner_(config) {}
 void LocalController::setPlan(const std::vector<Pose2D>& global_plan) {
   global_plan_ = global_plan;
   xy_tolerance_latch_ = false;
-  rotating_to_goal_ = false;
   planner_.resetOscillationFlags();
+}
+
+void LocalController::startGoal() {
+  // Not in setPlan: re-planning at planner_frequency while turning on the spot would restart
+  // the brake-then-turn sequence every time and make the final turn come in pulses.
+  rotating_to_goal_ = false;
+  xy_tolerance_latch_ = false;
 }
 
 std::vector<Pose2D> LocalController::transformAndPrunePlan(const CostGrid& costmap, const Pose2D& pose,

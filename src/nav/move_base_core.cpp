@@ -121,6 +121,7 @@ void MoveBaseCore::setGoal(const Pose2D& goal, double now) {
   next_plan_time_ = now;
   planning_retries_ = 0;
   last_failure_ = PlanResult{};
+  controller_.startGoal();
   planner_.drawVariation();
 }
 

@@ -40,6 +40,8 @@ class LocalController {
 
   // A new global plan (global frame). Resets the goal latch and the oscillation flags.
   void setPlan(const std::vector<Pose2D>& global_plan);
+  // A new goal: forget the stop-and-rotate phase of the previous one.
+  void startGoal();
   bool hasPlan() const { return !global_plan_.empty(); }
 
   // pose: robot in the controller (costmap) frame; velocity: robot frame (odometry twist);

@@ -203,6 +203,32 @@ TEST(Dwa, ReachesGoalPositionAndYawWithinTolerance) {
   EXPECT_LE(std::fabs(normalizeAngle(robot.pose.yaw - goal.yaw)), 0.17);
 }
 
+TEST(Dwa, FinalTurnIsNotInterruptedByReplanning) {
+  // At the goal position facing the opposite way, with the plan re-sent every cycle (as
+  // move_base re-plans at planner_frequency): the turn must keep going, not brake each time.
+  const auto m = roomMap(80, 80, {});
+  auto costmap = costmapOf(m);
+  const DwaConfig config = burgerDwa();
+  LocalController controller(config);
+  const Pose2D goal{2.0, 2.0, M_PI};
+  const auto plan = straightPlan({1.5, 2.0, 0}, goal);
+  controller.startGoal();
+  Robot robot{{2.0, 2.0, 0.0}, {}};
+  const Transform2D identity{};
+  int cycles = 0;
+  for (; cycles < 100; ++cycles) {
+    controller.setPlan(plan);
+    if (controller.isGoalReached(robot.pose, robot.velocity, identity)) break;
+    const ControlResult r = controller.computeVelocityCommands(costmap->costmap(), costmap->footprint(), robot.pose,
+                                                               robot.velocity, identity);
+    ASSERT_TRUE(r.ok) << r.message;
+    robot.step(r.command, config.limits, config.sim_period);
+  }
+  // pi rad at up to 2.75 rad/s with 3.2 rad/s^2: about 2 s; braking at every re-plan takes 3x longer.
+  EXPECT_LE(cycles * config.sim_period, 3.0);
+  EXPECT_LE(std::fabs(normalizeAngle(robot.pose.yaw - goal.yaw)), 0.17);
+}
+
 TEST(Transform2D, BetweenMapsOnePoseOntoTheOther) {
   const Pose2D in_map{1.0, 2.0, 0.5}, in_odom{-0.3, 0.7, 2.0};
   const Transform2D t = Transform2D::between(in_map, in_odom);
