@@ -32,7 +32,7 @@ from pathlib import Path
 from typing import NamedTuple, Optional, Union
 
 import numpy as np
-import yaml
+from ..yaml_file import YamlFileError, load_yaml_file
 
 OCCUPIED = 100
 FREE = 0
@@ -255,16 +255,9 @@ def _strip_comments(data: bytes) -> bytes:
 
 def _read_yaml(yaml_path: Path) -> dict:
     try:
-        text = yaml_path.read_text()
-    except OSError as err:
-        raise MapFileError(f"{yaml_path}: file: cannot read ({err.strerror})") from None
-    try:
-        config = yaml.safe_load(text)
-    except yaml.YAMLError as err:
-        mark = getattr(err, "problem_mark", None)
-        where = f" at line {mark.line + 1}" if mark is not None else ""
-        problem = getattr(err, "problem", None) or str(err).splitlines()[0]
-        raise MapFileError(f"{yaml_path}: YAML: {problem}{where}") from None
+        config = load_yaml_file(yaml_path)
+    except YamlFileError as error:
+        raise MapFileError(str(error)) from None
     if not isinstance(config, dict):
         raise MapFileError(f"{yaml_path}: YAML: expected a mapping of keys to values")
     return config

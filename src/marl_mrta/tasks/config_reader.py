@@ -10,7 +10,7 @@ import math
 from pathlib import Path
 from typing import Any, Dict, List, Optional, Union
 
-import yaml
+from ..yaml_file import YamlFileError, load_yaml_file
 
 
 class ConfigError(ValueError):
@@ -96,17 +96,10 @@ class ConfigSection:
 
 def read_yaml(path: Union[str, Path]) -> ConfigSection:
     """The top-level mapping of a YAML file, as a strict section."""
-    path = Path(path)
     try:
-        text = path.read_text()
-    except OSError as error:
-        raise ConfigError(f"{path}: cannot read ({error.strerror})") from None
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as error:
-        mark = getattr(error, "problem_mark", None)
-        where = f"line {mark.line + 1}" if mark is not None else "YAML"
-        raise ConfigError(f"{path}: {where}: not valid YAML") from None
+        data = load_yaml_file(path)
+    except YamlFileError as error:
+        raise ConfigError(str(error)) from None
     return ConfigSection(data if data is not None else {}, str(path))
 
 
