@@ -28,7 +28,7 @@ help:
 	@sed -n '2,5p' $(PKG_DIR)/Makefile | sed 's/^# *//'
 
 setup:
-	@bash $(PKG_DIR)/tools/bootstrap.sh
+	@MARL_MRTA_VENV=$(VENV) bash $(PKG_DIR)/tools/bootstrap.sh
 
 workspace:
 ifeq ($(WS),$(PKG_DIR)/.ws)
