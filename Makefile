@@ -31,10 +31,8 @@ setup:
 	@MARL_MRTA_VENV=$(VENV) bash $(PKG_DIR)/tools/bootstrap.sh
 
 workspace:
-ifeq ($(WS),$(PKG_DIR)/.ws)
+ifneq ($(WS),$(ENCLOSING_WS))
 	@bash $(PKG_DIR)/tools/workspace_view.sh $(PKG_DIR) $(WS)
-else ifneq ($(WS),$(ENCLOSING_WS))
-	@mkdir -p $(WS)/src && ln -sfn $(PKG_DIR) $(WS)/src/marl_mrta
 endif
 
 build: setup workspace
@@ -52,8 +50,8 @@ demo: build
 bench: build
 	@$(ROS_ENV) && bash $(PKG_DIR)/tools/bench.sh
 
-lint:
-	@catkin_lint -W2 --strict $(PKG_DIR)
+lint: workspace
+	@$(ROS_ENV) && catkin_lint -W1 --strict --pkg marl_mrta
 
 clean:
 	rm -rf $(PKG_DIR)/.ws

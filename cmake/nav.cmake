@@ -2,45 +2,45 @@
 #
 # marl_mrta_nav_core knows nothing of ROS: its gtests run without a roscore. The nodes in
 # src/nav/nodes/ are thin shells around it, installed under the stock executable names.
-add_library(marl_mrta_nav_core
-  src/nav/costmap_grid.cpp
-  src/nav/footprint.cpp
-  src/nav/param_tree.cpp
-  src/nav/layered_costmap.cpp
-  src/nav/static_layer.cpp
-  src/nav/obstacle_layer.cpp
-  src/nav/inflation_layer.cpp
+add_library(${PROJECT_NAME}_nav_core
   src/nav/costmap_config.cpp
-  src/nav/navfn_planner.cpp
+  src/nav/costmap_grid.cpp
   src/nav/dwa_planner.cpp
+  src/nav/footprint.cpp
+  src/nav/inflation_layer.cpp
+  src/nav/layered_costmap.cpp
   src/nav/local_controller.cpp
   src/nav/move_base_config.cpp
   src/nav/move_base_core.cpp
+  src/nav/navfn_planner.cpp
+  src/nav/obstacle_layer.cpp
+  src/nav/param_tree.cpp
+  src/nav/static_layer.cpp
 )
-target_link_libraries(marl_mrta_nav_core marl_mrta_map ${YAML_CPP_LIBRARIES})
+target_link_libraries(${PROJECT_NAME}_nav_core ${PROJECT_NAME}_map ${YAML_CPP_LIBRARIES})
 
 # ROS glue shared by the nodes (parameter tree conversion, message conversions).
-add_library(marl_mrta_nav_ros src/nav/nodes/ros_conversions.cpp)
-target_link_libraries(marl_mrta_nav_ros marl_mrta_nav_core ${catkin_LIBRARIES})
-add_dependencies(marl_mrta_nav_ros ${PROJECT_NAME}_generate_messages_cpp ${catkin_EXPORTED_TARGETS})
+add_library(${PROJECT_NAME}_nav_ros src/nav/nodes/ros_conversions.cpp)
+target_link_libraries(${PROJECT_NAME}_nav_ros ${PROJECT_NAME}_nav_core ${catkin_LIBRARIES})
+add_dependencies(${PROJECT_NAME}_nav_ros ${PROJECT_NAME}_generate_messages_cpp ${catkin_EXPORTED_TARGETS})
 
 # Same executable names as the stock nodes, so launch files only change the package.
 foreach(node map_server move_base fake_localization)
   add_executable(nav_${node} src/nav/nodes/${node}_node.cpp)
   set_target_properties(nav_${node} PROPERTIES OUTPUT_NAME ${node})
-  target_link_libraries(nav_${node} marl_mrta_nav_ros marl_mrta_nav_core ${catkin_LIBRARIES})
+  target_link_libraries(nav_${node} ${PROJECT_NAME}_nav_ros ${PROJECT_NAME}_nav_core ${catkin_LIBRARIES})
   add_dependencies(nav_${node} ${PROJECT_NAME}_generate_messages_cpp ${catkin_EXPORTED_TARGETS})
   install(TARGETS nav_${node} RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 endforeach()
-target_sources(nav_move_base PRIVATE src/nav/nodes/move_base_ros.cpp)
-install(TARGETS marl_mrta_nav_core marl_mrta_nav_ros
+target_sources(nav_move_base PRIVATE src/nav/nodes/move_base_ros.cpp src/nav/nodes/move_base_inputs.cpp)
+install(TARGETS ${PROJECT_NAME}_nav_core ${PROJECT_NAME}_nav_ros
   ARCHIVE DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
   LIBRARY DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
   RUNTIME DESTINATION ${CATKIN_GLOBAL_BIN_DESTINATION})
 
 # Speed of the cores alone (scripts/bench_nav runs it).
 add_executable(bench_nav_core src/nav/bench_nav_core.cpp)
-target_link_libraries(bench_nav_core marl_mrta_nav_core)
+target_link_libraries(bench_nav_core ${PROJECT_NAME}_nav_core)
 install(TARGETS bench_nav_core RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 
 if(CATKIN_ENABLE_TESTING)
@@ -60,6 +60,6 @@ if(CATKIN_ENABLE_TESTING)
     WORKING_DIRECTORY ${PROJECT_SOURCE_DIR})
   if(TARGET test_nav_core)
     target_compile_definitions(test_nav_core PRIVATE MARL_MRTA_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
-    target_link_libraries(test_nav_core marl_mrta_nav_core ${MARL_MRTA_GTEST_MAIN})
+    target_link_libraries(test_nav_core ${PROJECT_NAME}_nav_core ${MARL_MRTA_GTEST_MAIN})
   endif()
 endif()

@@ -10,6 +10,7 @@
 
 #include "marl_mrta/map/occupancy_map.h"
 #include "marl_mrta/nav/move_base_core.h"
+#include "marl_mrta/nav/cpu_clock.h"
 #include "marl_mrta/nav/static_layer.h"
 
 using namespace marl_mrta;
@@ -17,7 +18,7 @@ using namespace marl_mrta::nav;
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
+using Clock = marl_mrta::nav::ThreadCpuClock;  // CPU time: the machine may be shared
 double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
 struct Stats {

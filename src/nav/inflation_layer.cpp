@@ -22,7 +22,6 @@ void InflationLayer::matchSize(const LayeredCostmap& master) {
   const CostGrid& m = master.costmap();
   size_x_ = m.sizeX();
   resolution_ = m.resolution();
-  seen_.assign(static_cast<size_t>(m.sizeX()) * m.sizeY(), 0);
   need_reinflation_ = true;
 }
 
@@ -45,29 +44,18 @@ void InflationLayer::computeCaches() {
 }
 
 void InflationLayer::updateBounds(const Pose2D& /*robot*/, Bounds& bounds) {
-  if (need_reinflation_) {
-    last_bounds_ = bounds;
-    bounds.touch(-1e20, -1e20);
-    bounds.touch(1e20, 1e20);
-    need_reinflation_ = false;
-    return;
-  }
-  // Cells inflated last time around a vanished obstacle must be recomputed too.
-  const Bounds previous = last_bounds_;
-  last_bounds_ = bounds;
-  if (bounds.empty() && previous.empty()) return;
-  if (!previous.empty()) {
-    bounds.touch(previous.min_x, previous.min_y);
-    bounds.touch(previous.max_x, previous.max_y);
-  }
-  bounds.min_x -= config_.inflation_radius;
-  bounds.min_y -= config_.inflation_radius;
-  bounds.max_x += config_.inflation_radius;
-  bounds.max_y += config_.inflation_radius;
+  // The area the other layers rewrite is enough: updateCosts rewrites where the field changes.
+  if (!need_reinflation_) return;
+  bounds.touch(-1e20, -1e20);
+  bounds.touch(1e20, 1e20);
 }
 
 void InflationLayer::enqueue(unsigned index, unsigned x, unsigned y, unsigned src_x, unsigned src_y) {
   if (seen_[index]) return;
+  if (static_cast<int>(x) < search_min_x_ || static_cast<int>(x) >= search_max_x_ ||
+      static_cast<int>(y) < search_min_y_ || static_cast<int>(y) >= search_max_y_) {
+    return;
+  }
   const unsigned dx = x > src_x ? x - src_x : src_x - x;
   const unsigned dy = y > src_y ? y - src_y : src_y - y;
   if (dx > cell_inflation_radius_ || dy > cell_inflation_radius_) return;
@@ -76,22 +64,23 @@ void InflationLayer::enqueue(unsigned index, unsigned x, unsigned y, unsigned sr
   bins_[sq].push_back({index, x, y, src_x, src_y});
 }
 
-void InflationLayer::updateCosts(CostGrid& master, const CellWindow& window) {
-  if (cell_inflation_radius_ == 0) return;
-  const unsigned size_x = master.sizeX(), size_y = master.sizeY();
-  if (seen_.size() != static_cast<size_t>(size_x) * size_y) seen_.assign(static_cast<size_t>(size_x) * size_y, 0);
-  std::fill(seen_.begin(), seen_.end(), 0);
-  // Obstacles up to one inflation radius outside the window still reach into it.
+void InflationLayer::reinflate(const CellWindow& region, unsigned size_x, unsigned size_y) {
+  // Obstacles up to one inflation radius outside the region still reach into it.
   const int r = static_cast<int>(cell_inflation_radius_);
-  const int min_x = std::max(0, window.min_x - r), min_y = std::max(0, window.min_y - r);
-  const int max_x = std::min(static_cast<int>(size_x), window.max_x + r);
-  const int max_y = std::min(static_cast<int>(size_y), window.max_y + r);
-  std::vector<uint8_t>& cells = master.cells();
-  for (int y = min_y; y < max_y; ++y) {
-    for (int x = min_x; x < max_x; ++x) {
-      const unsigned index = master.index(x, y);
-      if (cells[index] == kLethalObstacle) bins_[0].push_back({index, unsigned(x), unsigned(y), unsigned(x), unsigned(y)});
+  search_min_x_ = std::max(0, region.min_x - r);
+  search_min_y_ = std::max(0, region.min_y - r);
+  search_max_x_ = std::min(static_cast<int>(size_x), region.max_x + r);
+  search_max_y_ = std::min(static_cast<int>(size_y), region.max_y + r);
+  for (int y = search_min_y_; y < search_max_y_; ++y) {
+    const unsigned row = static_cast<unsigned>(y) * size_x;
+    std::fill(seen_.begin() + row + search_min_x_, seen_.begin() + row + search_max_x_, 0);
+    for (int x = search_min_x_; x < search_max_x_; ++x) {
+      if (lethal_[row + x]) bins_[0].push_back({row + x, unsigned(x), unsigned(y), unsigned(x), unsigned(y)});
     }
+  }
+  for (int y = region.min_y; y < region.max_y; ++y) {
+    const unsigned row = static_cast<unsigned>(y) * size_x;
+    std::fill(field_.begin() + row + region.min_x, field_.begin() + row + region.max_x, 0);
   }
   const unsigned table = cell_inflation_radius_ + 2;
   for (size_t bin = 0; bin < bins_.size(); ++bin) {
@@ -100,15 +89,11 @@ void InflationLayer::updateCosts(CostGrid& master, const CellWindow& window) {
       const CellData cell = bins_[bin][k];
       if (seen_[cell.index]) continue;
       seen_[cell.index] = 1;
-      const unsigned dx = cell.x > cell.src_x ? cell.x - cell.src_x : cell.src_x - cell.x;
-      const unsigned dy = cell.y > cell.src_y ? cell.y - cell.src_y : cell.src_y - cell.y;
-      const uint8_t cost = cached_costs_[dx * table + dy];
-      uint8_t& old_cost = cells[cell.index];
-      if (old_cost == kNoInformation &&
-          (config_.inflate_unknown ? cost > kFreeSpace : cost >= kInscribedInflated)) {
-        old_cost = cost;
-      } else if (old_cost != kNoInformation || config_.inflate_unknown) {
-        old_cost = std::max(old_cost, cost);
+      if (static_cast<int>(cell.x) >= region.min_x && static_cast<int>(cell.x) < region.max_x &&
+          static_cast<int>(cell.y) >= region.min_y && static_cast<int>(cell.y) < region.max_y) {
+        const unsigned dx = cell.x > cell.src_x ? cell.x - cell.src_x : cell.src_x - cell.x;
+        const unsigned dy = cell.y > cell.src_y ? cell.y - cell.src_y : cell.src_y - cell.y;
+        field_[cell.index] = cached_costs_[dx * table + dy];
       }
       if (cell.x > 0) enqueue(cell.index - 1, cell.x - 1, cell.y, cell.src_x, cell.src_y);
       if (cell.y > 0) enqueue(cell.index - size_x, cell.x, cell.y - 1, cell.src_x, cell.src_y);
@@ -117,6 +102,69 @@ void InflationLayer::updateCosts(CostGrid& master, const CellWindow& window) {
     }
     bins_[bin].clear();
   }
+}
+
+void InflationLayer::combine(std::vector<uint8_t>& master, const CellWindow& area, unsigned size_x) const {
+  for (int y = area.min_y; y < area.max_y; ++y) {
+    for (unsigned i = static_cast<unsigned>(y) * size_x + area.min_x, end = i + (area.max_x - area.min_x); i < end;
+         ++i) {
+      const uint8_t below = beneath_[i], cost = field_[i];
+      if (below == kNoInformation) {
+        // Unknown space stays unknown unless inflation says more (costmap_2d's rule).
+        master[i] = (config_.inflate_unknown ? cost > kFreeSpace : cost >= kInscribedInflated) ? cost : below;
+      } else {
+        master[i] = std::max(below, cost);
+      }
+    }
+  }
+}
+
+void InflationLayer::updateCosts(CostGrid& master, const CellWindow& window) {
+  if (cell_inflation_radius_ == 0) return;
+  const unsigned size_x = master.sizeX(), size_y = master.sizeY();
+  const size_t cells = static_cast<size_t>(size_x) * size_y;
+  // A moved (rolling) or resized grid invalidates what is kept: everything is recomputed.
+  const bool full = need_reinflation_ || beneath_.size() != cells || master.originX() != origin_x_ ||
+                    master.originY() != origin_y_;
+  need_reinflation_ = false;
+  std::vector<uint8_t>& costs = master.cells();
+  CellWindow changed{static_cast<int>(size_x), static_cast<int>(size_y), 0, 0};
+  if (full) {
+    seen_.assign(cells, 0);
+    // Outside the window the master holds last update's result: the best guess of what is beneath.
+    beneath_ = costs;
+    lethal_.assign(cells, 0);
+    field_.assign(cells, 0);
+    for (size_t i = 0; i < cells; ++i) lethal_[i] = beneath_[i] == kLethalObstacle;
+    origin_x_ = master.originX();
+    origin_y_ = master.originY();
+    changed = CellWindow{0, 0, static_cast<int>(size_x), static_cast<int>(size_y)};
+  } else {
+    for (int y = window.min_y; y < window.max_y; ++y) {
+      for (int x = window.min_x; x < window.max_x; ++x) {
+        const unsigned i = static_cast<unsigned>(y) * size_x + x;
+        const uint8_t value = costs[i];
+        beneath_[i] = value;
+        const uint8_t lethal = value == kLethalObstacle;
+        if (lethal == lethal_[i]) continue;
+        lethal_[i] = lethal;
+        changed.min_x = std::min(changed.min_x, x);
+        changed.min_y = std::min(changed.min_y, y);
+        changed.max_x = std::max(changed.max_x, x + 1);
+        changed.max_y = std::max(changed.max_y, y + 1);
+      }
+    }
+  }
+  if (!changed.empty()) {
+    // The field changes only within one inflation radius of a cell whose lethality changed.
+    const int r = static_cast<int>(cell_inflation_radius_);
+    const CellWindow region{std::max(0, changed.min_x - r), std::max(0, changed.min_y - r),
+                            std::min(static_cast<int>(size_x), changed.max_x + r),
+                            std::min(static_cast<int>(size_y), changed.max_y + r)};
+    reinflate(region, size_x, size_y);
+    combine(costs, region, size_x);
+  }
+  combine(costs, window, size_x);
 }
 
 }  // namespace nav

@@ -4,14 +4,15 @@
 #include <cmath>
 #include <sstream>
 
+#include "marl_mrta/nav/cpu_clock.h"
 #include "marl_mrta/nav/static_layer.h"
 
 namespace marl_mrta {
 namespace nav {
 namespace {
 
-double elapsedSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+double elapsedSince(ThreadCpuClock::time_point start) {
+  return std::chrono::duration<double>(ThreadCpuClock::now() - start).count();
 }
 
 // Forgets obstacle data away from the robot in the named layers (clear_costmap_recovery).
@@ -136,14 +137,14 @@ void MoveBaseCore::resetState() {
 }
 
 void MoveBaseCore::updateCostmaps(double now, const Pose2D& pose_global, const Pose2D& pose_local, bool force) {
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = ThreadCpuClock::now();
   if (force || now >= next_global_update_) {
     global_costmap_->updateMap(pose_global);
     const double f = config_.global_costmap.update_frequency;
     next_global_update_ = f > 0.0 ? now + 1.0 / f - 1e-9 : 1e300;
     ++timings_.global_updates;
   }
-  const auto t1 = std::chrono::steady_clock::now();
+  const auto t1 = ThreadCpuClock::now();
   timings_.global_costmap += elapsedSince(t0);
   if (force || now >= next_local_update_) {
     local_costmap_->updateMap(pose_local);
@@ -163,7 +164,7 @@ bool MoveBaseCore::goalInStaticObstacle() const {
 }
 
 void MoveBaseCore::runPlanner(const CycleInput& in, CycleOutput& out) {
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = ThreadCpuClock::now();
   PlanResult result = planner_.makePlan(global_costmap_->costmap(), in.pose_global, goal_);
   timings_.planning += elapsedSince(t0);
   ++timings_.plans;
@@ -237,7 +238,7 @@ CycleOutput MoveBaseCore::runCycle(const CycleInput& in) {
     case MoveBaseState::kPlanning:
       break;
     case MoveBaseState::kControlling: {
-      const auto t0 = std::chrono::steady_clock::now();
+      const auto t0 = ThreadCpuClock::now();
       if (controller_.isGoalReached(in.pose_local, in.velocity, global_to_local)) {
         resetState();
         out.publish_command = true;
@@ -315,7 +316,7 @@ CycleOutput MoveBaseCore::runCycle(const CycleInput& in) {
 }
 
 PlanResult MoveBaseCore::makePlan(const Pose2D& start, const Pose2D& goal, double tolerance) {
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = ThreadCpuClock::now();
   PlanResult result = planner_.makePlan(global_costmap_->costmap(), start, goal, tolerance);
   timings_.planning += elapsedSince(t0);
   ++timings_.plans;

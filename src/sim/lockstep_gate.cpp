@@ -1,5 +1,6 @@
 #include "marl_mrta/sim/lockstep_gate.h"
 
+#include <algorithm>
 #include <cstddef>
 
 namespace marl_mrta {
@@ -9,13 +10,16 @@ LockstepGate::LockstepGate(std::vector<bool> participating)
     : participating_(std::move(participating)),
       commands_received_(participating_.size(), 0),
       acked_tick_(participating_.size(), -1),
-      acked_commands_(participating_.size(), 0) {}
+      acked_commands_(participating_.size(), 0),
+      next_tick_(participating_.size(), 0) {}
 
-bool LockstepGate::ackReceived(int robot, uint64_t tick, uint64_t cmd_vel_count, uint64_t current_tick) {
+bool LockstepGate::ackReceived(int robot, uint64_t tick, uint64_t cmd_vel_count, uint64_t next_tick,
+                               uint64_t current_tick) {
   if (!participating_[robot]) return false;
   if (tick == current_tick) {
     acked_tick_[robot] = static_cast<int64_t>(tick);
     acked_commands_[robot] = cmd_vel_count;
+    next_tick_[robot] = std::max(next_tick, tick + 1);
   }
   return true;
 }
@@ -25,8 +29,9 @@ bool LockstepGate::answered(uint64_t tick) const { return missing(tick).empty();
 std::vector<int> LockstepGate::missing(uint64_t tick) const {
   std::vector<int> robots;
   for (std::size_t g = 0; g < participating_.size(); ++g) {
-    if (participating_[g] &&
-        (acked_tick_[g] != static_cast<int64_t>(tick) || commands_received_[g] < acked_commands_[g])) {
+    const bool acked = acked_tick_[g] == static_cast<int64_t>(tick) ||
+                       (acked_tick_[g] >= 0 && acked_tick_[g] < static_cast<int64_t>(tick) && tick < next_tick_[g]);
+    if (participating_[g] && (!acked || commands_received_[g] < acked_commands_[g])) {
       robots.push_back(static_cast<int>(g));
     }
   }

@@ -96,7 +96,8 @@ void SimulatorRos::onCmdVel(size_t robot, const geometry_msgs::Twist::ConstPtr& 
 void SimulatorRos::onLockstepAck(const marl_mrta::LockstepAck::ConstPtr& msg) {
   const auto found = std::find_if(robots_.begin(), robots_.end(), [&](const RobotIo& io) { return io.ns == msg->robot; });
   if (found == robots_.end() ||
-      !lockstep_->ackReceived(static_cast<int>(found - robots_.begin()), msg->tick, msg->cmd_vel_count, world_->tick())) {
+      !lockstep_->ackReceived(static_cast<int>(found - robots_.begin()), msg->tick, msg->cmd_vel_count,
+                              firstTickAtOrAfter(msg->next_stamp), world_->tick())) {
     ROS_WARN_THROTTLE(5.0, "lockstep_ack: robot '%s' is not in ~lockstep_robots; ignored", msg->robot.c_str());
   }
 }
@@ -139,10 +140,21 @@ bool SimulatorRos::onStep(marl_mrta::StepSim::Request& req, marl_mrta::StepSim::
   return true;
 }
 
-ros::Time SimulatorRos::stamp() const {
+ros::Time SimulatorRos::stamp() const { return stampOf(world_->tick()); }
+
+ros::Time SimulatorRos::stampOf(uint64_t tick) const {
   ros::Time time;
-  time.fromNSec(static_cast<uint64_t>(std::llround(world_->tick() * 1e9 / config_.physics_rate)));
+  time.fromNSec(static_cast<uint64_t>(std::llround(tick * 1e9 / config_.physics_rate)));
   return time;
+}
+
+uint64_t SimulatorRos::firstTickAtOrAfter(const ros::Time& time) const {
+  if (time.isZero()) return 0;
+  // Estimate, then settle on the exact stamps (rounded to nanoseconds as stampOf).
+  uint64_t tick = static_cast<uint64_t>(std::max(0.0, std::floor(time.toSec() * config_.physics_rate)));
+  while (stampOf(tick) < time) ++tick;
+  while (tick > 0 && stampOf(tick - 1) >= time) --tick;
+  return tick;
 }
 
 void SimulatorRos::stepAndPublish() {
@@ -195,6 +207,7 @@ void SimulatorRos::publishState(const StepReport& report, bool initial) {
   last_tick_.tick = world_->tick();
   last_tick_.stamp = now;
   last_tick_.scan_published = scans;
+  if (scans) last_tick_.last_scan_stamp = now;
   tick_pub_.publish(last_tick_);
 }
 

@@ -2,7 +2,8 @@
 """rostest: one episode of a trained actor executed by per-robot robot_actor nodes.
 
 Trains an actor on lab_2r with the tuned preset (embedded backend, seeded), starts
-launch/execute.launch against the running simulator, navigation and task manager, and checks:
+launch/evaluate.launch method:=policy (which includes launch/execute.launch: one robot_actor per
+robot) against the running simulator, navigation and task manager, and checks:
 rl_manager ends cleanly, its episode is complete (every task finished), each robot was sent
 only its own observation row and answered every decision step on its own task_choice topic;
 and without actor nodes rl_manager ends with one line naming the robots. Waiting is bounded
@@ -59,7 +60,9 @@ class ExecDecentralisedTest(unittest.TestCase):
                              lambda m, ns=ns: self._add(lock, observed[ns], m.agent_index), queue_size=100)
 
         out = os.path.join(work, "execute.json")
-        launch = subprocess.run(["roslaunch", "marl_mrta", "execute.launch", "tasks:=false", "policy:=" + actor_file,
+        # evaluate.launch method:=policy delegates to execute.launch (one robot_actor per robot).
+        launch = subprocess.run(["roslaunch", "marl_mrta", "evaluate.launch", "method:=policy", "tasks:=false",
+                                 "policy:=" + actor_file,
                                  "scenario:=" + SCENARIO, "episodes:=1", "out:=" + out],
                                 stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=900)
         tail = launch.stdout[-3000:]

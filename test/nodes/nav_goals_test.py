@@ -10,8 +10,13 @@ One script, several cases chosen by ``~case``:
              invalid quaternion and unknown frame are rejected; move_base keeps working
   cancel     cancelling a goal stops the robot
   tb3_world  one robot navigates between three goals on TurtleBot3's own map (turtlebot3_world)
+  repeat     two arenas, one robot each at the same start: the first goals of the tour, sent to
+             both at the same tick, give the same result times and the same poses to the last bit
+             (lock-step runs do not depend on message timing or machine load)
 Times are simulation time; waiting is bounded by wall-clock deadlines (a stalled lock-step
-graph fails the test instead of hanging it). ``~result_file`` (optional) receives per-goal
+graph fails the test instead of hanging it). Goals of the tour start with the robot at rest on a
+whole simulated second (the simulator paused and stepped there, move_base caught up), so a lock-step
+run does not depend on when this test got around to sending them. ``~result_file`` (optional) receives per-goal
 figures as JSON (used by scripts/bench_nav).
 """
 import json
@@ -31,15 +36,19 @@ from actionlib_msgs.msg import GoalStatus
 from geometry_msgs.msg import Pose2D
 from move_base_msgs.msg import MoveBaseAction, MoveBaseActionResult, MoveBaseGoal
 from nav_msgs.msg import Odometry
-from std_srvs.srv import SetBool
+from std_srvs.srv import Empty, SetBool
 
-from marl_mrta.msg import CollisionEvent
-from marl_mrta.srv import ResetSim
+from marl_mrta.msg import CollisionEvent, LockstepAck
+from marl_mrta.srv import ResetSim, StepSim
 
 PKG = "marl_mrta"
 XY_TOLERANCE = 0.05
 YAW_TOLERANCE = 0.17
 WALL_TIMEOUT = 240.0  # [s] per goal, wall clock
+# Synchronised goals start on ticks that are multiples of this (1 s at 20 Hz): the same phase of
+# every periodic activity (control, planning, costmap updates, scans).
+ALIGN_TICKS = 20
+REPEATED_GOALS = 4  # of the tour, driven by the twin robots of the repeat case
 
 
 def yaw_of(q):
@@ -59,12 +68,19 @@ class Robot:
         self.truth = []  # (stamp [s], x, y, yaw, linear speed, angular speed)
         self.client = actionlib.SimpleActionClient(ns + "/move_base", MoveBaseAction)
         self.result_stamps = {}  # goal id -> stamp of its result (the tick at which it ended)
+        self.acked_tick = -1  # latest lock-step answer of this robot's move_base
+        rospy.Subscriber("/simulator/lockstep_ack", LockstepAck, self.on_ack, queue_size=100)
         rospy.Subscriber(ns + "/base_pose_ground_truth", Odometry, self.on_truth, queue_size=100)
         rospy.Subscriber(ns + "/move_base/result", MoveBaseActionResult, self.on_result, queue_size=10)
 
     def on_result(self, msg):
         with self.lock:
             self.result_stamps[msg.status.goal_id.id] = msg.header.stamp.to_sec()
+
+    def on_ack(self, msg):
+        if msg.robot == self.ns:
+            with self.lock:
+                self.acked_tick = max(self.acked_tick, msg.tick)
 
     def on_truth(self, msg):
         p = msg.pose.pose
@@ -108,18 +124,17 @@ class Robot:
         self.client.send_goal(goal)
         return rospy.Time.now().to_sec()
 
+    def wait_at_rest(self):
+        """Waits until the robot stands still (it stops within a second of its last goal)."""
+        deadline = time.time() + 30.0
+        while self.latest()[4:6] != (0.0, 0.0):
+            if time.time() > deadline:
+                raise AssertionError(self.ns + ": the robot does not come to rest")
+            time.sleep(0.005)
+
     def send_synchronised(self, goal):
-        """Sends a goal while the simulator is paused, so that it starts at a known tick."""
-        pause = rospy.ServiceProxy("/simulator/pause", SetBool)
-        pause(True)
-        try:
-            t0 = self.send(*goal)
-            deadline = time.time() + 30.0
-            while self.client.get_state() == GoalStatus.PENDING and time.time() < deadline:
-                time.sleep(0.001)
-        finally:
-            pause(False)
-        return t0
+        """Sends a goal at a known tick and phase (see send_synchronised below)."""
+        return send_synchronised([(self, goal)])
 
     def wait(self, timeout=WALL_TIMEOUT):
         """Waits (wall clock) for the goal to end: (state, text, sim time at the end)."""
@@ -136,6 +151,30 @@ class Robot:
                 return state, self.client.get_goal_status_text(), result_stamp
             time.sleep(0.002)
         raise AssertionError("%s: goal still running after %.0f s of wall time" % (self.ns, timeout))
+
+
+def send_synchronised(robot_goals):
+    """Sends each (robot, goal) with the robots at rest and the simulator paused on a multiple of
+    ALIGN_TICKS, every move_base caught up with that tick; returns the sim time of the start."""
+    for robot, _ in robot_goals:
+        robot.wait_at_rest()
+    pause = rospy.ServiceProxy("/simulator/pause", SetBool)
+    step = rospy.ServiceProxy("/simulator/step", StepSim)
+    pause(True)
+    try:
+        reached = step((-step(0).tick) % ALIGN_TICKS)
+        deadline = time.time() + 30.0
+        while any(robot.acked_tick < reached.tick for robot, _ in robot_goals) and time.time() < deadline:
+            time.sleep(0.001)
+        for robot, goal in robot_goals:
+            robot.send(*goal)
+        # The start is the tick reached (this node's /clock may not have caught up with it yet).
+        t0 = reached.stamp.to_sec()
+        while any(robot.client.get_state() == GoalStatus.PENDING for robot, _ in robot_goals) and time.time() < deadline:
+            time.sleep(0.001)
+    finally:
+        pause(False)
+    return t0
 
 
 class NavTest(unittest.TestCase):
@@ -183,9 +222,10 @@ class NavTest(unittest.TestCase):
         _, x, y, yaw, _, _ = robot.truth_at(t1)
         error_xy = math.hypot(x - goal[0], y - goal[1])
         error_yaw = abs(angle_diff(yaw, goal[2]))
-        self.results.append({"robot": robot.ns, "goal": label, "x": goal[0], "y": goal[1], "yaw": goal[2],
-                             "time": t1 - t0, "straight_line": math.hypot(goal[0] - start[1], goal[1] - start[2]),
-                             "error_xy": error_xy, "error_yaw": error_yaw})
+        figures = {"robot": robot.ns, "goal": label, "x": goal[0], "y": goal[1], "yaw": goal[2], "time": t1 - t0,
+                   "straight_line": math.hypot(goal[0] - start[1], goal[1] - start[2]),
+                   "error_xy": error_xy, "error_yaw": error_yaw, "pose": [x, y, yaw]}
+        self.results.append(figures)
         self.assertLessEqual(error_xy, XY_TOLERANCE, "%s: goal %s reached %.3f m away" % (robot.ns, label, error_xy))
         self.assertLessEqual(error_yaw, YAW_TOLERANCE, "%s: goal %s reached %.3f rad off" % (robot.ns, label, error_yaw))
 
@@ -275,6 +315,25 @@ class CancelTest(NavTest):
         self.assertLess(math.hypot(later[1] - stopped[1], later[2] - stopped[2]), 0.005)
 
 
+class RepeatTest(NavTest):
+    robots = ["arena_0/tb3_0", "arena_1/tb3_0"]
+
+    def test_twin_robots_drive_identically(self):
+        scenario = os.path.join(rospkg.RosPack().get_path(PKG), "scenarios", "lab_2r.xml")
+        tasks = ElementTree.parse(scenario).getroot().find("tasks")
+        twins = [self.fleet[ns] for ns in self.robots]
+        for task in list(tasks)[:REPEATED_GOALS]:
+            goal = (float(task.get("x")), float(task.get("y")), float(task.get("yaw")))
+            t0 = send_synchronised([(robot, goal) for robot in twins])
+            outcomes = []
+            for robot in twins:
+                state, text, t1 = robot.wait()
+                self.assertEqual(GoalStatus.SUCCEEDED, state, "%s: goal %s: %s" % (robot.ns, task.get("id"), text))
+                # The result's tick and the true pose there.
+                outcomes.append((round((t1 - t0) * 20.0), robot.truth_at(t1)[1:4]))
+            self.assertEqual(outcomes[0], outcomes[1], "goal %s: (ticks, pose) of the twins differ" % task.get("id"))
+
+
 class Tb3WorldTest(NavTest):
     def test_three_goals_on_turtlebot3_map(self):
         if not rospy.get_param("~map_available", True):
@@ -287,7 +346,7 @@ class Tb3WorldTest(NavTest):
 
 
 CASES = {"tour": TourTest, "swap": SwapTest, "goal_errors": GoalErrorsTest, "cancel": CancelTest,
-         "tb3_world": Tb3WorldTest}
+         "tb3_world": Tb3WorldTest, "repeat": RepeatTest}
 
 if __name__ == "__main__":
     rospy.init_node("nav_goals_test")

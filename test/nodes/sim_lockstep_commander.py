@@ -3,7 +3,8 @@
 
 Registers as the lock-step controller of ``~robots`` (marl_mrta.ros.lockstep), answers every
 tick with a command that depends only on the tick number (sent on every second tick, like a
-10 Hz controller), and stops answering at ``~final_tick``. It writes the ground-truth poses
+10 Hz controller), and stops answering at ``~final_tick``. With ``~period`` 0.1 (s) it acts
+only on those ticks and lets the simulator run through the others without waiting (next_stamp). It writes the ground-truth poses
 stamped at that tick (as exact float hex strings) and the collision events seen to
 ``~result_file`` (JSON), and exits.
 """
@@ -29,6 +30,7 @@ def main():
     robots = rospy.get_param("~robots", ["tb3_0", "tb3_1"])
     final_tick = int(rospy.get_param("~final_tick", 600))
     result_file = rospy.get_param("~result_file")
+    period = float(rospy.get_param("~period", 0.0))
     collisions, final_poses = [], {}
     lock = threading.Lock()
 
@@ -51,7 +53,7 @@ def main():
         return True
 
     rospy.Subscriber("/simulator/collisions", CollisionEvent, on_collision, queue_size=100)
-    controller = LockstepController(robots, on_tick)
+    controller = LockstepController(robots, on_tick, period=period)
     controller.start()
     while not rospy.is_shutdown() and not controller.finished.wait(0.1):
         pass

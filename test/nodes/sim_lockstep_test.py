@@ -4,7 +4,9 @@
 Runs ``sim.launch robots:=2 lockstep:=true rtf:=0`` three times against the test's master,
 each with the scripted controller test/nodes/sim_lockstep_commander.py, which drives both
 robots with tick-dependent commands up to ``~final_tick`` and writes the final ground-truth
-poses. The third run shares the machine with two busy-looping processes (one per core).
+poses. The first run answers every tick; the second and third act only on every second tick and
+let the simulator run through the others (LockstepAck.next_stamp), which must not change anything.
+The third run shares the machine with two busy-looping processes (one per core).
 """
 import json
 import os
@@ -41,7 +43,7 @@ class LockstepTest(unittest.TestCase):
     def tearDown(self):
         shutil.rmtree(self.tmp, ignore_errors=True)
 
-    def run_once(self, tag):
+    def run_once(self, tag, period=0.0):
         result_path = os.path.join(self.tmp, tag + ".json")
         log = open(os.path.join(self.tmp, tag + ".log"), "w")
         simulator = subprocess.Popen(
@@ -49,8 +51,10 @@ class LockstepTest(unittest.TestCase):
              "robot_description:=false"],
             stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
         commander = subprocess.Popen(
-            ["rosrun", "marl_mrta", "sim_lockstep_commander.py", "__name:=commander_" + tag,
-             "_final_tick:=%d" % self.final_tick, "_result_file:=" + result_path],
+            # Beside this file (rosrun would stop at a second copy, e.g. a workspace built inside the checkout).
+            [sys.executable, os.path.join(os.path.dirname(os.path.abspath(__file__)), "sim_lockstep_commander.py"),
+             "__name:=commander_" + tag,
+             "_final_tick:=%d" % self.final_tick, "_result_file:=" + result_path, "_period:=%g" % period],
             stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
         try:
             commander.wait(timeout=240)
@@ -68,10 +72,10 @@ class LockstepTest(unittest.TestCase):
 
     def test_runs_are_bit_identical_also_under_load(self):
         first = self.run_once("first")
-        second = self.run_once("second")
+        second = self.run_once("second", period=0.1)
         busy = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(2)]
         try:
-            loaded = self.run_once("loaded")
+            loaded = self.run_once("loaded", period=0.1)
         finally:
             for process in busy:
                 process.kill()

@@ -2,6 +2,9 @@
 // the distance d to it: 254 at d = 0, 253 while d <= inscribed radius, then
 // 252·exp(−cost_scaling_factor·(d − inscribed_radius)) out to inflation_radius; the master
 // keeps the maximum. Cells are visited in order of distance to their nearest obstacle.
+// Incremental: the layer keeps the inflation field and the costs beneath it, so an update
+// re-inflates only around cells that became or stopped being lethal (nothing when none did)
+// and rewrites the master where the field changed or the other layers wrote.
 #pragma once
 
 #include <vector>
@@ -38,6 +41,10 @@ class InflationLayer : public Layer {
   };
   void computeCaches();
   void enqueue(unsigned index, unsigned x, unsigned y, unsigned src_x, unsigned src_y);
+  // Recomputes field_ inside `region` from the lethal cells within one radius of it.
+  void reinflate(const CellWindow& region, unsigned size_x, unsigned size_y);
+  // Master cells of `area` from the costs beneath and the field.
+  void combine(std::vector<uint8_t>& master, const CellWindow& area, unsigned size_x) const;
 
   InflationLayerConfig config_;
   double resolution_ = 0.05;
@@ -45,7 +52,12 @@ class InflationLayer : public Layer {
   unsigned cell_inflation_radius_ = 0;
   unsigned size_x_ = 0;
   bool need_reinflation_ = true;
-  Bounds last_bounds_;
+  double origin_x_ = 0.0, origin_y_ = 0.0;  // of the master when the caches were made
+  std::vector<uint8_t> beneath_;  // master costs before inflation
+  std::vector<uint8_t> lethal_;   // 1 where beneath_ is lethal
+  std::vector<uint8_t> field_;    // inflation cost (0 beyond the radius)
+  // Search window of reinflate() (seen_ is clear outside it).
+  int search_min_x_ = 0, search_min_y_ = 0, search_max_x_ = 0, search_max_y_ = 0;
   std::vector<uint8_t> cached_costs_;  // by (|dx|, |dy|), (radius + 2)^2 entries
   std::vector<char> seen_;
   // Bins by squared cell distance: exact distance order without a priority queue.

@@ -8,8 +8,9 @@
 namespace marl_mrta {
 namespace sim {
 
-// Lock-step: tick T is answered once every participating robot has an ack for T and the
-// simulator has received at least as many cmd_vel messages for it as the ack counts.
+// Lock-step: tick T is answered once every participating robot has an ack for T (or for an
+// earlier tick whose ack said that the robot's controller needs no tick before a later one)
+// and the simulator has received at least as many cmd_vel messages for it as the ack counts.
 class LockstepGate {
  public:
   // participating[g]: robot g (global index) must be answered.
@@ -17,8 +18,10 @@ class LockstepGate {
 
   void commandReceived(int robot) { ++commands_received_[robot]; }
   // Records an ack made for `tick` while the simulator is at `current_tick` (acks for other
-  // ticks are stale and ignored). Returns false when the robot does not participate.
-  bool ackReceived(int robot, uint64_t tick, uint64_t cmd_vel_count, uint64_t current_tick);
+  // ticks are stale and ignored); the controller needs no answer from itself before
+  // `next_tick` (tick + 1 or less: the next tick). Returns false when the robot does not
+  // participate.
+  bool ackReceived(int robot, uint64_t tick, uint64_t cmd_vel_count, uint64_t next_tick, uint64_t current_tick);
   bool answered(uint64_t tick) const;
   // Participating robots still missing for `tick` (for messages).
   std::vector<int> missing(uint64_t tick) const;
@@ -28,6 +31,7 @@ class LockstepGate {
   std::vector<uint64_t> commands_received_;
   std::vector<int64_t> acked_tick_;
   std::vector<uint64_t> acked_commands_;
+  std::vector<uint64_t> next_tick_;  // first tick the robot's controller answers again
 };
 
 // Real-time pacing: with rtf > 0, the step to tick T+1 is due rtf times faster than sim time

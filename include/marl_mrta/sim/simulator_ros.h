@@ -56,7 +56,10 @@ class SimulatorRos {
 
   void stepAndPublish();
   void publishState(const StepReport& report, bool initial);
-  ros::Time stamp() const;
+  ros::Time stamp() const;  // of the current tick
+  ros::Time stampOf(uint64_t tick) const;
+  // First tick stamped at or after `time` (0 for time 0).
+  uint64_t firstTickAtOrAfter(const ros::Time& time) const;
   void warnLockstepWait() const;
   void writeStats() const;
 

@@ -103,6 +103,15 @@ def main(argv: Optional[List[str]] = None) -> int:
     parser.add_argument("--seeds", type=int, default=3, help="seeds of the time-to-policy runs (default 3)")
     parser.add_argument("--budget", type=int, default=PAPER_BUDGET,
                         help=f"decision steps of the paper-vs-tuned comparison (default {PAPER_BUDGET})")
+    parser.add_argument("--ros", action="store_true",
+                        help="instead: time to policy on the ros backend (minutes; starts its own ROS graph, "
+                             "keeps the embedded figures of bench_mappo.json)")
+    parser.add_argument("--arenas", type=int, default=2, help="--ros: arenas of the simulator (default 2)")
+    parser.add_argument("--ros-minutes", type=float, default=30.0,
+                        help="--ros: wall minutes each ros-backend training may take at most (default 30)")
+    parser.add_argument("--ros-modes", default="pretrained,scratch",
+                        help="--ros: pretrained (embedded training, then ROS) and/or scratch (ROS only)")
+    parser.add_argument("--ros-port", type=int, default=11599, help="--ros: port of the benchmark's own ROS master")
     args = parser.parse_args(argv)
     out = Path(args.out)
     runs = out / "tmp" / "bench_mappo"
@@ -118,6 +127,9 @@ def main(argv: Optional[List[str]] = None) -> int:
     plan, instance = exact_plan(env)
     target = WITHIN * plan.makespan
     log(f"exact: {plan.makespan:.2f} s (proven {plan.proven_optimal}), allocation {plan.describe(instance.task_ids)}")
+
+    if args.ros:
+        return _main_ros(args, tuned, target, out, runs, log)
 
     bare = env_steps_per_second(make_env)
     log(f"bare environment: {bare:.0f} steps/s")
@@ -174,3 +186,24 @@ def main(argv: Optional[List[str]] = None) -> int:
     log(f"wrote {out / 'bench_mappo.json'}")
     return 0
 
+
+
+def _main_ros(args, tuned: MappoConfig, embedded_target: float, out: Path, runs: Path, log) -> int:
+    from .bench_ros import GraphError, measure, merge_into
+    modes = [m.strip() for m in args.ros_modes.split(",") if m.strip()]
+    unknown = [m for m in modes if m not in ("pretrained", "scratch")]
+    if unknown or not modes:
+        print(f"bench_mappo: --ros-modes: {','.join(unknown) or '(empty)'}: not pretrained or scratch", file=sys.stderr)
+        return 2
+    scenario = str(Path(args.scenario).resolve())
+    try:
+        ros = measure(tuned, scenario, args.arenas, args.ros_minutes, args.ros_port, 0, runs.resolve(),
+                      embedded_target, train, modes, log)
+    except GraphError as error:
+        print(f"bench_mappo: {error}", file=sys.stderr)
+        return 1
+    document = merge_into(out / "bench_mappo.json", ros)
+    for row in document["headline"]:
+        log(f"  {row['figure']}: {row['value']} {row['unit']} {('(goal ' + row['goal'] + ')') if row['goal'] else ''}")
+    log(f"wrote {out / 'bench_mappo.json'}")
+    return 0

@@ -1,12 +1,16 @@
-"""Train MAPPO on a scenario with the embedded executor; resumable (scripts/train).
+"""Train MAPPO on a scenario; resumable (scripts/train, rl_manager train).
 
-Bad input (settings file, scenario, run directory) ends with one line on stderr and exit 2.
+Backends: embedded (the embedded executor, vectorised) and ros (K arenas of one simulator,
+each run by its own rl_task_allocation_manager, stepped in parallel: launch/train.launch).
+Bad input (settings file, scenario, run directory, a manager that does not match) ends with
+one line on stderr and exit 2.
 """
 from __future__ import annotations
 
 import argparse
 import dataclasses
 import sys
+from typing import Any, Dict
 from functools import partial
 from pathlib import Path
 from typing import Callable, List, Optional
@@ -20,7 +24,7 @@ from .config import ConfigError, MappoConfig, config_from_dict, load_config, res
 from .runner import RunError, Runner
 
 #: Backends an environment can be built with by this command.
-BACKENDS = ("embedded",)
+BACKENDS = ("embedded", "ros")
 #: Errors of user input; each prints as one line.
 INPUT_ERRORS = (ScenarioError, EnvConfigError, ConfigError, RunError)
 
@@ -41,17 +45,92 @@ def env_factory(scenario: str, config: MappoConfig, backend: str = "embedded") -
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="train", description=__doc__.splitlines()[0])
-    parser.add_argument("--scenario", default=str(package_root() / "scenarios" / "lab_2r.xml"),
-                        help="scenario XML (default: the package's scenarios/lab_2r.xml)")
+    parser.add_argument("--scenario", default=None,
+                        help="scenario XML (default: the package's scenarios/lab_2r.xml; ros: the managers' scenario, "
+                             "checked when given)")
     parser.add_argument("--preset", default=None,
                         help="tuned | paper | path to a YAML of MAPPO settings (default tuned; see config/mappo/)")
-    parser.add_argument("--backend", choices=BACKENDS, default="embedded", help="executor that runs the episodes")
+    parser.add_argument("--backend", choices=BACKENDS, default="embedded",
+                        help="embedded: the embedded executor; ros: running task managers in the ROS simulation")
+    parser.add_argument("--arenas", type=int, default=None,
+                        help="ros: arenas (task managers) to train on in parallel; sets n_envs (default 2)")
+    parser.add_argument("--manager-wait", type=float, default=120.0,
+                        help="ros: wall s to wait for every arena's task manager (default 120)")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                        help="override one setting of the preset (YAML value), e.g. --set total_env_steps=2000")
     parser.add_argument("--seed", type=int, default=None, help="seed of everything random in the run (default 0)")
     parser.add_argument("--out", default=None,
                         help="run directory (default: the package's results/runs/<scenario>_<preset>_s<seed>)")
     parser.add_argument("--resume", action="store_true",
                         help="continue the run in --out from its checkpoint (its stored settings and seed)")
     return parser
+
+
+def parse_overrides(items: List[str]) -> Dict[str, Any]:
+    """--set KEY=VALUE items as settings (values parsed as YAML: 3, 2e-3, true, {nav: {best: 0}})."""
+    import yaml
+    overrides = {}
+    for item in items:
+        key, sep, text = item.partition("=")
+        if not sep or not key.strip():
+            raise ConfigError(f"--set: {item!r} is not KEY=VALUE")
+        try:
+            value = yaml.safe_load(text)
+        except yaml.YAMLError:
+            raise ConfigError(f"--set: {key.strip()}: {text!r} is not a YAML value") from None
+        if isinstance(value, str):
+            try:
+                value = float(value)   # YAML 1.1 reads 2e-3 as a string
+            except ValueError:
+                pass
+        overrides[key.strip()] = value
+    return overrides
+
+
+def _settings(args: argparse.Namespace, preset: str) -> MappoConfig:
+    """The preset with --set and (ros) the number of arenas applied."""
+    overrides = parse_overrides(args.set)
+    if args.backend == "ros":
+        overrides["n_envs"] = args.arenas or 2
+    elif args.arenas is not None:
+        raise RunError("--arenas: only with --backend ros")
+    return load_config(resolve_preset(preset), overrides)
+
+
+def ros_pool(config: MappoConfig, seed: int, scenario: Optional[str], manager_wait: float):
+    """The running task managers of n_envs arenas as a parallel EnvPool, each scored with the
+    training reward; checks that they run the scenario and mask the settings expect."""
+    import rosgraph
+    from ..ros.env_client import ManagerUnavailable, RosTaskEnvClient, arena_managers
+    from .env_pool import EnvPool
+    from .training_reward import TrainingRewardEnv, training_reward
+
+    if not rosgraph.is_master_online():
+        raise ManagerUnavailable(f"no ROS master at {rosgraph.get_master_uri()}: start the arenas first "
+                                 f"(roslaunch marl_mrta tasks.launch arenas:={config.n_envs} mask:={config.action_mask}, "
+                                 f"or train with roslaunch marl_mrta train.launch backend:=ros)")
+    clients = [RosTaskEnvClient(name, wait_wall=manager_wait) for name in arena_managers(config.n_envs)]
+    first = clients[0]
+    for client in clients:
+        source = client.scenario_path
+        if scenario is not None and source != Path(scenario).resolve():
+            raise RunError(f"{client.manager}: runs scenario {source}, the training is for {scenario}")
+        if client.settings.mask != config.action_mask:
+            raise RunError(f"{client.manager}: mask: the manager masks {client.settings.mask!r}, the settings "
+                           f"train with action_mask {config.action_mask!r} (start it with mask:={config.action_mask})")
+        if source != first.scenario_path:
+            raise RunError(f"{client.manager}: runs scenario {source}, {first.manager} runs {first.scenario_path}")
+    reward = training_reward(first.scenario, config.reward_overrides)
+    envs = [TrainingRewardEnv(client, reward, client.n_tasks) for client in clients]
+    return EnvPool(envs, seed, parallel=True, replayable=False), str(first.scenario_path)
+
+
+def _backend(args: argparse.Namespace, config: MappoConfig, seed: int, scenario: Optional[str]) -> Dict[str, Any]:
+    """Runner arguments of the chosen backend and the scenario it runs."""
+    if args.backend == "ros":
+        pool, scenario = ros_pool(config, seed, scenario, args.manager_wait)
+        return {"make_env": None, "pool": pool, "scenario": scenario}
+    return {"make_env": env_factory(scenario, config, "embedded"), "scenario": scenario}
 
 
 def _resumed_runner(args: argparse.Namespace, log: Callable[[str], None]) -> Runner:
@@ -62,36 +141,53 @@ def _resumed_runner(args: argparse.Namespace, log: Callable[[str], None]) -> Run
     # A resumed run keeps its settings; contradicting arguments are an error, not ignored.
     if args.seed is not None and args.seed != stored["seed"]:
         raise RunError(f"--seed: {args.seed} differs from the run's seed {stored['seed']}; resume keeps the stored one")
-    if args.preset is not None and load_config(resolve_preset(args.preset)) != config:
-        raise RunError(f"--preset: {args.preset} differs from the settings stored in {args.out}/checkpoint.pt")
-    runner = Runner.resume(Path(args.out), env_factory(stored["scenario"], config, args.backend), log=log)
-    log(f"train: resuming {args.out} at update {runner.update}/{config.n_updates}")
+    if (args.preset is not None or args.set) and _settings(args, args.preset or "tuned") != config:
+        raise RunError(f"--preset/--set: the settings differ from those stored in {args.out}/checkpoint.pt")
+    if args.backend == "ros" and args.arenas is not None and args.arenas != config.n_envs:
+        raise RunError(f"--arenas: {args.arenas} differs from the run's {config.n_envs} environments")
+    backend = _backend(args, config, stored["seed"], stored["scenario"])
+    runner = Runner.resume(Path(args.out), backend["make_env"], log=log, pool=backend.get("pool"))
+    note = " (running episodes restart: a simulation is not replayed)" if args.backend == "ros" else ""
+    log(f"train: resuming {args.out} at update {runner.update}/{config.n_updates}{note}")
     return runner
 
 
 def _fresh_runner(args: argparse.Namespace, log: Callable[[str], None]) -> Runner:
     preset = args.preset or "tuned"
     seed = 0 if args.seed is None else args.seed
-    config = load_config(resolve_preset(preset))
-    run_name = f"{Path(args.scenario).stem}_{Path(preset).stem}_s{seed}"
+    config = _settings(args, preset)
+    scenario_arg = args.scenario if args.scenario is not None else (
+        None if args.backend == "ros" else str(package_root() / "scenarios" / "lab_2r.xml"))
+    scenario = str(Path(scenario_arg).resolve()) if scenario_arg is not None else None
+    backend = _backend(args, config, seed, scenario)
+    scenario = backend["scenario"]
+    suffix = f"_ros{config.n_envs}" if args.backend == "ros" else ""
+    run_name = f"{Path(scenario).stem}_{Path(preset).stem}{suffix}_s{seed}"
     out = Path(args.out) if args.out else package_root() / "results" / "runs" / run_name
-    scenario = str(Path(args.scenario).resolve())
-    runner = Runner(config, env_factory(scenario, config, args.backend), scenario=scenario, seed=seed,
-                    out_dir=out, log=log)
+    runner = Runner(config, backend["make_env"], scenario=scenario, seed=seed, out_dir=out, log=log,
+                    pool=backend.get("pool"))
     runner.start()
-    log(f"train: {args.scenario} with preset {preset}, seed {seed}, {config.n_updates} updates of "
-        f"{config.batch_size} steps -> {out}")
+    where = f"{config.n_envs} ROS arenas" if args.backend == "ros" else f"{config.n_envs} embedded environments"
+    log(f"train: {scenario} with preset {preset}, seed {seed}, {config.n_updates} updates of "
+        f"{config.batch_size} steps on {where} -> {out}")
     return runner
 
 
 def main(argv: Optional[List[str]] = None, log: Callable[[str], None] = print) -> int:
     args = build_parser().parse_args(argv)
+    lost: tuple = ()
+    if args.backend == "ros":
+        from ..ros.env_client import ManagerUnavailable
+        lost = (ManagerUnavailable,)
     try:
         runner = _resumed_runner(args, log) if args.resume else _fresh_runner(args, log)
         summary = runner.run()
     except INPUT_ERRORS as error:
         print(f"train: {error}", file=sys.stderr)
         return 2
+    except lost as error:   # a manager or the simulator went away; the last checkpoint stands
+        print(f"train: {error}", file=sys.stderr)
+        return 1
     except OSError as error:   # e.g. an output directory that cannot be written
         print(f"train: {error.filename or ''}: {error.strerror}", file=sys.stderr)
         return 2

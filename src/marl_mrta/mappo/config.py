@@ -61,6 +61,8 @@ class MappoConfig:
     gamma: float = setting(0.98, "discount factor γ", low=0.0, high=1.0)
     gae_lambda: float = setting(0.95, "GAE λ (not given by the paper; the usual value)", low=0.0, high=1.0)
     team_reward: bool = setting(True, "train every robot on the mean of all robots' rewards (the paper's team reward) instead of its own")
+    own_reward_share: float = setting(0.0, "with team_reward: share of a robot's own reward beside the team mean "
+                                      "(0 = the paper's team reward)", low=0.0, high=1.0)
     reward_scale: float = setting(1.0, "rewards are multiplied by this before returns are computed", low=0.0, low_open=True)
 
     # PPO update

@@ -5,9 +5,15 @@ number), and the joint actions of the running episodes are recorded. A checkpoin
 needs only the episode numbers and those actions: `restore()` resets each environment with
 the same seed and replays the actions, which rebuilds the environments exactly (environments
 are deterministic given reset seed and actions) without pickling them.
+
+Environments whose step is a blocking call that waits for a simulation (the ros backend:
+one arena per environment) are stepped in parallel threads (`parallel=True`), and, since a
+simulation is not repeatable bit for bit, are not replayed on restore (`replayable=False`):
+the episodes running at the checkpoint are abandoned and fresh ones start.
 """
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any, Callable, Dict, List, Optional, Sequence
 
@@ -83,10 +89,16 @@ class _EpisodeTally:
 class EnvPool:
     """The N environments of a run; `run_seed` fixes every episode of every environment."""
 
-    def __init__(self, make_env: Callable[[], TaskAllocationEnv], n_envs: int, run_seed: int):
-        self.envs = [make_env() for _ in range(n_envs)]
+    def __init__(self, envs: Sequence[TaskAllocationEnv], run_seed: int, *, parallel: bool = False,
+                 replayable: bool = True):
+        """parallel: step (and reset) the environments in one thread each; replayable: the
+        environments are deterministic given reset seed and actions (module doc)."""
+        self.envs = list(envs)
         first = self.envs[0]
+        n_envs = len(self.envs)
         self.n_envs = n_envs
+        self.replayable = replayable
+        self._threads = ThreadPoolExecutor(max_workers=n_envs, thread_name_prefix="env") if parallel else None
         self.n_agents, self.n_actions = first.n_agents, first.n_actions
         self.obs_dim, self.state_dim = first.obs_dim, first.state_dim
         self.run_seed = run_seed
@@ -102,12 +114,30 @@ class EnvPool:
         self._latest[i] = out
         return out
 
-    def reset(self) -> PoolStep:
-        """Start the first episode of every environment."""
-        for i in range(self.n_envs):
-            self._reset(i)
+    @classmethod
+    def build(cls, make_env: Callable[[], TaskAllocationEnv], n_envs: int, run_seed: int) -> "EnvPool":
+        """n_envs environments from one factory, stepped one after the other (embedded)."""
+        return cls([make_env() for _ in range(n_envs)], run_seed)
+
+    def _map(self, function: Callable[[int], Any]) -> List[Any]:
+        """function(i) for every environment, in threads when parallel; results in order."""
+        if self._threads is None:
+            return [function(i) for i in range(self.n_envs)]
+        return list(self._threads.map(function, range(self.n_envs)))
+
+    def _fresh(self) -> PoolStep:
         return self._current(np.zeros((self.n_envs, self.n_agents), np.float32),
                              np.zeros(self.n_envs, bool), np.zeros(self.n_envs, bool), [])
+
+    def reset(self) -> PoolStep:
+        """Start the first episode of every environment."""
+        self._map(self._reset)
+        return self._fresh()
+
+    def restart(self) -> PoolStep:
+        """Abandon the running episodes (unrecorded) and start the next one in every environment."""
+        self.episode_index = [k + 1 for k in self.episode_index]
+        return self.reset()
 
     def _current(self, rewards, terminated, truncated, finished, final_state=None) -> PoolStep:
         latest = self._latest
@@ -128,9 +158,10 @@ class EnvPool:
         truncated = np.zeros(self.n_envs, bool)
         final_state = np.zeros((self.n_envs, self.state_dim), np.float32)
         finished: List[EpisodeSummary] = []
-        for i, env in enumerate(self.envs):
-            joint = [int(a) for a in actions[i]]
-            out = env.step(joint)
+        joints = [[int(a) for a in actions[i]] for i in range(self.n_envs)]
+        outputs = self._map(lambda i: self.envs[i].step(joints[i]))
+        for i, out in enumerate(outputs):
+            joint = joints[i]
             self.episode_actions[i].append(joint)
             self._tallies[i].add(out)
             rewards[i] = out.rewards
@@ -139,9 +170,14 @@ class EnvPool:
                 terminated[i], truncated[i] = bool(out.done), not out.done
                 finished.append(self._record(i, out))
                 self.episode_index[i] += 1
-                self._reset(i)
             else:
                 self._latest[i] = out
+        ended = [i for i in range(self.n_envs) if terminated[i] or truncated[i]]
+        if self._threads is None or len(ended) < 2:
+            for i in ended:
+                self._reset(i)
+        else:
+            list(self._threads.map(self._reset, ended))
         return self._current(rewards, terminated, truncated, finished, final_state)
 
     def _record(self, i: int, final: StepOutput) -> EpisodeSummary:
@@ -157,8 +193,11 @@ class EnvPool:
                 "episode_actions": [list(map(list, acts)) for acts in self.episode_actions]}
 
     def restore(self, snapshot: Dict[str, Any]) -> PoolStep:
-        """Rebuild the running episodes: reset with their seeds, replay their actions."""
+        """Rebuild the running episodes: reset with their seeds, replay their actions. Not
+        replayable: abandon them and start the next episode of every environment."""
         self.episode_index = list(snapshot["episode_index"])
+        if not self.replayable:
+            return self.restart()
         for i, env in enumerate(self.envs):
             self._reset(i)
             for joint in snapshot["episode_actions"][i]:
@@ -169,27 +208,41 @@ class EnvPool:
                 self.episode_actions[i].append(list(joint))
                 self._tallies[i].add(out)
                 self._latest[i] = out
-        return self._current(np.zeros((self.n_envs, self.n_agents), np.float32),
-                             np.zeros(self.n_envs, bool), np.zeros(self.n_envs, bool), [])
+        return self._fresh()
+
+    def evaluate(self, policy_act: Callable, seeds: Sequence[int]) -> List[EpisodeSummary]:
+        """Greedy episodes on these environments (seed k on environment k mod n_envs, in
+        parallel when the pool is); the running training episodes are lost: call restart()."""
+        def run(i: int) -> List[EpisodeSummary]:
+            return [greedy_episode(policy_act, self.envs[i], seed, env_index=i) for seed in seeds[i::self.n_envs]]
+
+        per_env = self._map(run)
+        return [per_env[k % self.n_envs][k // self.n_envs] for k in range(len(seeds))]
+
+    def close(self) -> None:
+        if self._threads is not None:
+            self._threads.shutdown(wait=False)
+
+
+def greedy_episode(policy_act: Callable, env: TaskAllocationEnv, seed: int, env_index: int = -1) -> EpisodeSummary:
+    """One episode with a greedy policy; policy_act(obs, mask, hidden) -> (a, h), hidden None
+    at the start of the episode."""
+    out = env.reset(seed=int(seed))
+    tally = _EpisodeTally(env.n_agents)
+    hidden = None
+    while True:
+        actions, hidden = policy_act(out.obs, out.action_mask, hidden)
+        out = env.step([int(a) for a in actions])
+        tally.add(out)
+        if out.done or out.truncated:
+            break
+    return EpisodeSummary(env_index=env_index, length=tally.length, reward_per_robot=tally.rewards.tolist(),
+                          components={k: v.tolist() for k, v in tally.components.items()},
+                          terminated=bool(out.done), **_outcome(out))
 
 
 def evaluate_greedy(policy_act: Callable, make_env: Callable[[], TaskAllocationEnv],
                     seeds: Sequence[int]) -> List[EpisodeSummary]:
-    """Run one episode per seed with a greedy policy; policy_act(obs, mask, hidden) -> (a, h)
-    with hidden None at the start of an episode."""
+    """Run one episode per seed with a greedy policy on a new environment."""
     env = make_env()
-    records = []
-    for seed in seeds:
-        out = env.reset(seed=int(seed))
-        tally = _EpisodeTally(env.n_agents)
-        hidden = None
-        while True:
-            actions, hidden = policy_act(out.obs, out.action_mask, hidden)
-            out = env.step([int(a) for a in actions])
-            tally.add(out)
-            if out.done or out.truncated:
-                break
-        records.append(EpisodeSummary(env_index=-1, length=tally.length, reward_per_robot=tally.rewards.tolist(),
-                                     components={k: v.tolist() for k, v in tally.components.items()},
-                                     terminated=bool(out.done), **_outcome(out)))
-    return records
+    return [greedy_episode(policy_act, env, seed) for seed in seeds]

@@ -8,6 +8,12 @@ One Runner owns a run directory:
   history.json   per-episode and per-update records; plots/*.png the paper's figures
 Both .pt files are written atomically. SIGINT/SIGTERM end the run at the next update boundary
 with a checkpoint; a run killed harder resumes from its last periodic checkpoint.
+
+The environments come from an EnvPool: by default one built from `make_env` (embedded); or a
+given pool, e.g. K ROS arenas stepped in parallel. A pool that cannot replay its episodes
+(a simulation) is checkpointed after every update, a stop signal abandons the update being
+collected (its checkpoint is the previous update's), and with no `make_env` the greedy
+evaluation runs in the pool's own environments, after which fresh training episodes start.
 """
 from __future__ import annotations
 
@@ -39,6 +45,10 @@ EVAL_STREAM = 1_000_003
 
 class RunError(RuntimeError):
     """A run that cannot start or resume; str(error) is one line naming the file."""
+
+
+class _UpdateAbandoned(Exception):
+    """A stop signal arrived while collecting from environments that cannot be replayed."""
 
 
 def make_deterministic(seed: int) -> None:
@@ -82,12 +92,13 @@ class RunSummary:
 
 
 class Runner:
-    def __init__(self, config: MappoConfig, make_env: Callable[[], TaskAllocationEnv], *,
+    def __init__(self, config: MappoConfig, make_env: Optional[Callable[[], TaskAllocationEnv]], *,
                  scenario: str, seed: int, out_dir: Path, log: Callable[[str], None] = print,
                  target_makespan: Optional[float] = None, stop_at_target: bool = False,
-                 tensorboard: bool = True, plots: bool = True):
+                 tensorboard: bool = True, plots: bool = True, pool: Optional[EnvPool] = None):
         """target_makespan: greedy makespan counted as "policy found" (time_to_target);
-        stop_at_target ends the run there (benchmarks)."""
+        stop_at_target ends the run there (benchmarks); pool: the environments (default
+        config.n_envs from make_env); make_env None: evaluate in the pool (module doc)."""
         self.config = config
         self.make_env = make_env
         self.scenario = scenario
@@ -100,7 +111,11 @@ class Runner:
         self.want_plots = plots
         make_deterministic(seed)
 
-        self.pool = EnvPool(make_env, config.n_envs, seed)
+        if pool is None:
+            pool = EnvPool.build(make_env, config.n_envs, seed)
+        elif pool.n_envs != config.n_envs:
+            raise RunError(f"n_envs: the settings ask for {config.n_envs} environments, the pool has {pool.n_envs}")
+        self.pool = pool
         self.n_agents = self.pool.n_agents
         self.trainer = MappoTrainer(config, self.pool.obs_dim, self.pool.state_dim, self.n_agents, self.pool.n_actions)
         self.buffer = RolloutBuffer(config.rollout_length, config.n_envs, self.n_agents, self.trainer.actor_obs_dim,
@@ -166,9 +181,11 @@ class Runner:
         self.episodes, self.wall_time = counters["episodes"], counters["wall_time"]
         self.time_to_target, self.steps_to_target = counters["time_to_target"], counters["steps_to_target"]
         self.history = data["history"]
-        self.hidden = data["hidden"].clone()
-        self.episode_start = data["episode_start"].clone()
         self.current = self.pool.restore(data["env_pool"])
+        if self.pool.replayable:
+            self.hidden = data["hidden"].clone()
+            self.episode_start = data["episode_start"].clone()
+        # else: the pool started fresh episodes; zero GRU states, every step an episode start
         self.action_generator.set_state(data["rng"]["actions"])
         self.shuffle_generator.set_state(data["rng"]["shuffle"])
         _set_rng_states(data["rng"]["global"])
@@ -204,6 +221,8 @@ class Runner:
         finished: List[EpisodeSummary] = []
         self.buffer.reset()
         while not self.buffer.full:
+            if self.stop_requested and not self.pool.replayable:
+                raise _UpdateAbandoned
             step = self.current
             obs = self.trainer.actor_obs(torch.from_numpy(step.obs).float())          # (E, N, D)
             state = torch.from_numpy(step.state).float()
@@ -219,7 +238,10 @@ class Runner:
             result = self.pool.step(actions.reshape(E, N).numpy())
             rewards = torch.from_numpy(result.rewards).float()
             if c.team_reward:
-                rewards = rewards.mean(dim=1, keepdim=True).expand(E, N)
+                # A share of its own reward tells a robot which of its choices the team paid for
+                # (with four robots the mean alone hides who took a task another already had).
+                team = rewards.mean(dim=1, keepdim=True).expand(E, N)
+                rewards = c.own_reward_share * rewards + (1.0 - c.own_reward_share) * team
             terminated = torch.from_numpy(result.terminated)
             truncated = torch.from_numpy(result.truncated)
             final_values = torch.zeros(E, N)
@@ -245,7 +267,12 @@ class Runner:
     def train_one_update(self) -> Dict[str, float]:
         """collect → compute → train: one PPO update (the unit of checkpoints and resume)."""
         started = time.perf_counter()
-        finished = self.collect()
+        steps_before = self.env_steps
+        try:
+            finished = self.collect()
+        except _UpdateAbandoned:
+            self.env_steps = steps_before
+            raise
         collected = time.perf_counter()
         self.compute()
         metrics = self.trainer.train(self.buffer, self.env_steps, self.shuffle_generator)
@@ -272,7 +299,13 @@ class Runner:
             hidden = policy.initial_hidden(self.n_agents) if hidden is None else hidden
             return policy.act(obs, mask, hidden, deterministic=True)
 
-        records = evaluate_greedy(act, self.make_env, self.eval_seeds)
+        if self.make_env is not None:
+            records = evaluate_greedy(act, self.make_env, self.eval_seeds)
+        else:
+            records = self.pool.evaluate(act, self.eval_seeds)
+            self.current = self.pool.restart()
+            self.hidden.zero_()
+            self.episode_start.fill_(True)
         self.trainer.actor.train()
         self.wall_time += time.perf_counter() - started
         makespans = [r.makespan if r.terminated else math.inf for r in records]
@@ -327,7 +360,7 @@ class Runner:
         eta = time.strftime("%H:%M:%S", time.gmtime(remaining / max(rate, 1e-9)))
         greedy = f" | greedy {evaluation['makespan']:.1f} s" if evaluation is not None else ""
         return (f"update {self.update}/{self.config.n_updates} | episodes {self.episodes} | "
-                f"steps {self.env_steps} | {rate:.0f} steps/s | makespan {makespan}{greedy} | "
+                f"steps {self.env_steps} | {rate:.3g} steps/s | makespan {makespan}{greedy} | "
                 f"loss {metrics['loss']:.3f} | entropy {metrics['entropy']:.2f} | ETA {eta}")
 
     # ---------------------------------------------------------------- whole run
@@ -349,10 +382,16 @@ class Runner:
         session_start, session_steps = time.perf_counter(), self.env_steps
         metrics: Dict[str, float] = {}
         reached = False
+        abandoned = False
         try:
             while self.update < c.n_updates and not self.stop_requested and not reached:
                 n_episodes = len(self.history["episodes"])
-                metrics = self.train_one_update()
+                try:
+                    metrics = self.train_one_update()
+                except _UpdateAbandoned:
+                    abandoned = True
+                    self.log(f"update {self.update + 1} abandoned; the checkpoint of update {self.update} stands")
+                    break
                 evaluation = None
                 if (c.eval_every and self.update % c.eval_every == 0) or self.update == c.n_updates:
                     evaluation = self.evaluate()
@@ -360,12 +399,13 @@ class Runner:
                 self._write_scalars(metrics, self.history["episodes"][n_episodes:], evaluation)
                 if self.update % c.log_every == 0 or evaluation is not None:
                     self.log(self._progress_line(metrics, session_start, session_steps, evaluation))
-                if self.update % c.checkpoint_every == 0:
+                if self.update % c.checkpoint_every == 0 or not self.pool.replayable:
                     self.save_checkpoint()
         finally:
             for sig, handler in previous.items():
                 signal.signal(sig, handler)
-        self.save_checkpoint()
+        if not abandoned:
+            self.save_checkpoint()
         self.finish()
         last_eval = self.history["evaluations"][-1]["makespan"] if self.history["evaluations"] else float("nan")
         return RunSummary(updates=self.update, env_steps=self.env_steps, episodes=self.episodes,

@@ -265,11 +265,26 @@ def _json_value(value):
     raise TypeError(f"not JSON serialisable: {type(value).__name__}")
 
 
+def train(argv: Sequence[str]) -> int:
+    """rl_manager train: the MAPPO trainer (mappo/cli.py, ROS-free) as a node, logging to
+    rosconsole. Its own SIGINT/SIGTERM handling ends a run with a checkpoint, so rospy's is off."""
+    import rospy
+    from ..mappo.cli import main as train_main
+    rospy.init_node("rl_manager", disable_signals=True)
+    try:
+        return train_main(list(argv), log=rospy.loginfo)
+    finally:
+        rospy.signal_shutdown("training ended")
+
+
 def main(argv: Optional[Sequence[str]] = None) -> int:
-    """rl_manager MODE [options]; the only mode is `execute`."""
+    """rl_manager MODE [options]; modes `execute` (decentralised episodes) and `train` (MAPPO)."""
     argv = [a for a in (sys.argv[1:] if argv is None else argv) if ":=" not in a]   # roslaunch remappings
+    if argv and argv[0] == "train":
+        return train(argv[1:])
     if not argv or argv[0] != "execute":
-        print("rl_manager: mode: give `execute` (rl_manager execute --episodes N ...)", file=sys.stderr)
+        print("rl_manager: mode: give `execute` (rl_manager execute --episodes N ...) or `train` "
+              "(rl_manager train --backend ros --arenas K ...; see train --help)", file=sys.stderr)
         return 2
     try:
         args = parse_execute_args(argv[1:])

@@ -7,7 +7,7 @@ episode records included. The manager's `~env` parameter gives the sizes and set
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Optional, Sequence
+from typing import List, Optional, Sequence
 
 import rospy
 
@@ -20,6 +20,13 @@ from .conversions import from_message
 from .sim_clock import SimulatorLost
 
 DEFAULT_MANAGER = "/rl_task_allocation_manager"
+
+
+def arena_managers(arenas: int) -> List[str]:
+    """The task managers of a simulator with `arenas` arenas (launch/tasks.launch arenas:=K)."""
+    if arenas == 1:
+        return [DEFAULT_MANAGER]
+    return [f"/arena_{k}{DEFAULT_MANAGER}" for k in range(arenas)]
 
 
 class ManagerUnavailable(RuntimeError):

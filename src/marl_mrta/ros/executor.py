@@ -9,6 +9,12 @@ Between steps the simulator is paused, so the time this node needs to think neve
 the world. A step starts on a tick aligned to `align_period` after every controller has
 caught up, with every goal accepted by its move_base before time runs: in lock-step the
 same joint actions then give the same robot motions whatever the machine's load.
+
+With several arenas in one simulator (parallel training) the clock is shared: another
+arena's manager may be driving its robots at any time, so no manager pauses or steps the
+simulator; each waits for sim time instead (between steps this arena's robots stand still,
+which no reward or makespan counts). Steps then start on the first aligned tick after the
+client's call, so such runs are not bit-repeatable.
 """
 from __future__ import annotations
 
@@ -36,7 +42,9 @@ class RosExecutor:
         self.n_robots = scenario.n_robots
         self.namespaces = [settings.robot_prefix + robot.id for robot in scenario.robots]
         self.sim = SimulatorLink(self.namespaces, settings.arena, settings.simulator_lost_after)
-        self.bases = [MoveBaseLink(ns, settings.map_frame) for ns in self.namespaces]
+        # Absolute names: with several arenas the manager runs in its arena's namespace (arena_k)
+        # while the robot namespaces (arena_k/tb3_i) are the simulator's, from the root.
+        self.bases = [MoveBaseLink("/" + ns, settings.map_frame) for ns in self.namespaces]
         self.clock = SimClock(settings.simulator_lost_after, diagnose=self._diagnose)
         self._starts = [(r.start.x, r.start.y, r.start.yaw) for r in scenario.robots]
         self._step_start = 0.0
@@ -58,7 +66,7 @@ class RosExecutor:
         """Robots back to the scenario's start poses: goals cancelled, costmaps cleared, simulator
         paused on the reset state. The simulator's own noise is seeded by its `seed` parameter."""
         del seed
-        self.sim.pause()
+        self._pause(True)
         self._cancel_running()
         # On an aligned tick, so that the controllers' costmap updates (restarted by the clearing
         # below) keep the same phase relative to every later step start.
@@ -69,7 +77,7 @@ class RosExecutor:
             service = rospy.ServiceProxy(base.server_name + "/clear_costmaps", Empty)
             call_bounded(service, self.settings.simulator_lost_after, f"{service.resolved_name}")
         self.sim.forget_poses()
-        tick, stamp = self.sim.step(1)   # publishes the reset state
+        tick, stamp = self._advance(1)   # publishes the reset state
         self.sim.wait_caught_up(tick, stamp)
         self._lost = None
 
@@ -80,6 +88,8 @@ class RosExecutor:
             t0 = self._settle(align=True)
         except SimulatorLost as lost:
             return self._aborted(goals, None, str(lost))
+        if self.shared_clock:
+            t0 = max(t0, self.clock.now())   # time has run on since the aligned tick
         self._step_start = t0
         pending = [i for i, g in enumerate(goals) if g is not None]
         for i in pending:
@@ -90,9 +100,9 @@ class RosExecutor:
             wait_wall(lambda: all(self.bases[i].accepted for i in pending), self.settings.simulator_lost_after,
                       lambda: "move_base of " + ", ".join(self.namespaces[i] for i in pending
                                                           if not self.bases[i].accepted) + " did not take its goal")
-            self.sim.pause(False)
+            self._pause(False)
             self.clock.wait_until(lambda: all(self.bases[i].result is not None for i in pending), deadline)
-            self.sim.pause(True)
+            self._pause(True)
             self._cancel_running()
             end = min(self._settle(align=False), deadline)
         except SimulatorLost as lost:
@@ -122,7 +132,7 @@ class RosExecutor:
             rate = self.sim.config.physics_rate
             ticks = int(math.ceil((self._step_start + duration - now) * rate - 1e-6))
             if ticks > 0:
-                self.sim.step(ticks)
+                self._advance(ticks)
             self._settle(align=False)
         except SimulatorLost as lost:
             self._lost = str(lost)   # reported as the abort of the next step
@@ -131,6 +141,26 @@ class RosExecutor:
         return [pose if pose is not None else start for pose, start in zip(self.sim.poses(), self._starts)]
 
     # ------------------------------------------------------------------ helpers
+
+    @property
+    def shared_clock(self) -> bool:
+        """Several arenas in the simulator: other managers drive on the same clock (module doc)."""
+        return self.sim.config is not None and self.sim.config.arenas > 1
+
+    def _pause(self, paused: bool) -> None:
+        if not self.shared_clock:
+            self.sim.pause(paused)
+
+    def _advance(self, ticks: int) -> Tuple[int, float]:
+        """`ticks` more ticks: stepped when paused, waited for on a shared clock. Returns the
+        tick and sim time reached."""
+        if not self.shared_clock:
+            return self.sim.step(ticks)
+        tick, _ = self.sim.step(0)
+        target = tick + ticks
+        stamp = target / self.sim.config.physics_rate
+        self.clock.wait_until(lambda: self.clock.now() >= stamp - 1e-9)
+        return target, stamp
 
     def _settle(self, align: bool) -> float:
         """With the simulator paused: optionally step to the next aligned tick, then wait until
@@ -142,7 +172,7 @@ class RosExecutor:
         if ticks == 0 and not self.sim.has_state(tick, stamp):
             ticks = period   # this tick's state went out before this node listened (start-up)
         if ticks:
-            tick, stamp = self.sim.step(ticks)
+            tick, stamp = self._advance(ticks)
         self.sim.wait_caught_up(tick, stamp)
         return stamp
 
@@ -160,7 +190,7 @@ class RosExecutor:
         for base in self.bases:
             base.cancel()
         try:
-            self.sim.pause(True)
+            self._pause(True)
         except SimulatorLost:
             pass
         elapsed = max(0.0, self.clock.now() - t0) if t0 is not None else 0.0

@@ -3,10 +3,13 @@
 For every /simulator/tick the controller publishes its commands for that tick on each
 robot's cmd_vel, then one marl_mrta/LockstepAck per robot carrying the number of commands
 sent so far; the simulator advances only when every robot in its ~lockstep_robots has been
-answered and those commands have arrived. Results then never depend on machine load.
+answered and those commands have arrived. Results then never depend on machine load. A
+controller acting every `period` seconds of sim time says so in its acks (next_stamp), and the
+simulator runs through the ticks in between without waiting for it.
 """
 from __future__ import annotations
 
+import math
 import threading
 import time
 from typing import Callable, Dict, Optional, Sequence
@@ -26,11 +29,16 @@ class LockstepController:
     sends commands with `command()` and returns False to stop answering (the simulator then
     waits at that tick). The states are waited for up to state_wait_wall seconds, so the
     simulator's odom_rate should equal its physics_rate (the default) when states are used.
+    With `period` > 0 [sim s], `on_tick` is called only for the first tick of each period counted
+    from time 0, and the simulator does not wait for the ticks in between.
     """
 
     def __init__(self, robots: Sequence[str], on_tick: Callable[[SimTick, Dict[str, Odometry]], bool],
-                 state_topic: Optional[str] = "base_pose_ground_truth", state_wait_wall: float = 1.0):
+                 state_topic: Optional[str] = "base_pose_ground_truth", state_wait_wall: float = 1.0,
+                 period: float = 0.0):
         self.robots = list(robots)
+        self.period = period
+        self._acted_period: Optional[int] = None
         self.on_tick = on_tick
         self.state_wait_wall = state_wait_wall
         self._state_topic = state_topic
@@ -90,13 +98,23 @@ class LockstepController:
     def _on_tick(self, msg: SimTick) -> None:
         if self._stopped:
             return
+        next_stamp = rospy.Time()  # 0: every tick is needed
+        act = True
+        if self.period > 0.0:
+            index = math.floor(msg.stamp.to_sec() / self.period + 1e-6)
+            next_stamp = rospy.Time.from_sec((index + 1 - 1e-6) * self.period)
+            act = index != self._acted_period
         if msg.tick != self._answered_tick:
-            if not self.on_tick(msg, self._states_at(msg.stamp)):
-                self._stopped = True
-                self.finished.set()
-                return
+            if act:
+                if not self.on_tick(msg, self._states_at(msg.stamp)):
+                    self._stopped = True
+                    self.finished.set()
+                    return
+                if self.period > 0.0:
+                    self._acted_period = index
             self._answered_tick = msg.tick
         # A re-sent tick is answered again: the first answer may have gone before the
         # simulator's subscription was connected.
         for ns in self.robots:
-            self._ack_pub.publish(LockstepAck(robot=ns, tick=msg.tick, cmd_vel_count=self.commands_sent[ns]))
+            self._ack_pub.publish(LockstepAck(robot=ns, tick=msg.tick, cmd_vel_count=self.commands_sent[ns],
+                                              next_stamp=next_stamp))

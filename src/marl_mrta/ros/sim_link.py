@@ -79,7 +79,7 @@ class SimulatorLink:
         self._pause = rospy.ServiceProxy(SIMULATOR + "/pause", SetBool)
         self._step = rospy.ServiceProxy(SIMULATOR + "/step", StepSim)
         for i, ns in enumerate(self.robots):
-            rospy.Subscriber(ns + "/base_pose_ground_truth", Odometry, self._on_truth, i, queue_size=5,
+            rospy.Subscriber("/" + ns + "/base_pose_ground_truth", Odometry, self._on_truth, i, queue_size=5,
                              tcp_nodelay=True)
         rospy.Subscriber(SIMULATOR + "/lockstep_ack", LockstepAck, self._on_ack, queue_size=100, tcp_nodelay=True)
         rospy.Subscriber(SIMULATOR + "/collisions", CollisionEvent, self._on_collision, queue_size=100)

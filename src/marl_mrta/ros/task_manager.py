@@ -49,7 +49,7 @@ class TaskManagerNode:
         self.pub_assigned = rospy.Publisher("Global_assigned_task", TaskAssignment, queue_size=10, latch=True)
         self.pub_reached = rospy.Publisher("Global_reached_task", TaskReached, queue_size=50)
         self.pub_idle = rospy.Publisher("idle_time", IdleTime, queue_size=10)
-        self.pub_goal = [rospy.Publisher(ns + "/goal", PoseStamped, queue_size=1, latch=True) for ns in self.robot_ns]
+        self.pub_goal = [rospy.Publisher("/" + ns + "/goal", PoseStamped, queue_size=1, latch=True) for ns in self.robot_ns]
         self.pub_markers = rospy.Publisher("task_markers", MarkerArray, queue_size=1, latch=True)
 
     def start(self) -> None:

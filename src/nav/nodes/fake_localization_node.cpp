@@ -38,8 +38,10 @@ class FakeLocalization {
     offset_ = {pnh.param("delta_x", 0.0), pnh.param("delta_y", 0.0), pnh.param("delta_yaw", 0.0)};
     pose_pub_ = nh.advertise<geometry_msgs::PoseWithCovarianceStamped>("amcl_pose", 1);
     cloud_pub_ = nh.advertise<geometry_msgs::PoseArray>("particlecloud", 1);
-    truth_sub_ = nh.subscribe("base_pose_ground_truth", 100, &FakeLocalization::onTruth, this);
-    odom_sub_ = nh.subscribe("odom", 100, &FakeLocalization::onOdom, this);
+    // No Nagle delay: in lock-step, move_base waits for the transform made from these.
+    truth_sub_ = nh.subscribe("base_pose_ground_truth", 100, &FakeLocalization::onTruth, this,
+                              ros::TransportHints().tcpNoDelay());
+    odom_sub_ = nh.subscribe("odom", 100, &FakeLocalization::onOdom, this, ros::TransportHints().tcpNoDelay());
     initial_sub_ = nh.subscribe("initialpose", 1, &FakeLocalization::onInitialPose, this);
   }
 

@@ -1,7 +1,6 @@
 #include "move_base_ros.h"
 
 #include <geometry_msgs/Twist.h>
-#include <marl_mrta/LockstepAck.h>
 #include <nav_msgs/Path.h>
 #include <tf2_geometry_msgs/tf2_geometry_msgs.h>
 
@@ -17,7 +16,7 @@ namespace nav {
 namespace conv = ros_conversions;
 
 MoveBaseRos::MoveBaseRos(ros::NodeHandle& nh, ros::NodeHandle& private_nh)
-    : nh_(nh), private_nh_(private_nh), tf_listener_(tf_buffer_), action_server_(nh, "move_base", false) {
+    : nh_(nh), private_nh_(private_nh), tf_listener_(tf_buffer_, ros::NodeHandle(), true, ros::TransportHints().tcpNoDelay()), action_server_(nh, "move_base", false) {
   XmlRpc::XmlRpcValue params;
   ros::param::get(private_nh_.getNamespace(), params);
   const YAML::Node tree = params.getType() == XmlRpc::XmlRpcValue::TypeStruct ? conv::toYaml(params)
@@ -63,7 +62,8 @@ MoveBaseRos::MoveBaseRos(ros::NodeHandle& nh, ros::NodeHandle& private_nh)
   }
   for (size_t i = 0; i < scan_inputs_.size(); ++i) {
     scan_inputs_[i].sub = nh_.subscribe<sensor_msgs::LaserScan>(
-        scan_inputs_[i].topic, 10, [this, i](const sensor_msgs::LaserScan::ConstPtr& msg) { onScan(i, msg); });
+        scan_inputs_[i].topic, 10, [this, i](const sensor_msgs::LaserScan::ConstPtr& msg) { onScan(i, msg); },
+        ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
   }
   const auto static_layers = core_->globalCostmap().layersOfType<StaticLayer>();
   if (!static_layers.empty()) map_sub_ = nh_.subscribe(static_layers.front()->config().map_topic, 1, &MoveBaseRos::onMap, this);
@@ -77,15 +77,17 @@ MoveBaseRos::MoveBaseRos(ros::NodeHandle& nh, ros::NodeHandle& private_nh)
   local_costmap_pub_ = private_nh_.advertise<nav_msgs::OccupancyGrid>("local_costmap/costmap", 1);
   action_goal_pub_ = nh_.advertise<move_base_msgs::MoveBaseActionGoal>("move_base/goal", 1);
   simple_goal_sub_ = nh_.subscribe("move_base_simple/goal", 1, &MoveBaseRos::onSimpleGoal, this);
-  odom_sub_ = nh_.subscribe(config.dwa_odom_topic, 10, &MoveBaseRos::onOdom, this);
+  // No Nagle delay on what a lock-step control step waits for.
+  odom_sub_ = nh_.subscribe(config.dwa_odom_topic, 10, &MoveBaseRos::onOdom, this, ros::TransportHints().tcpNoDelay());
   make_plan_srv_ = private_nh_.advertiseService("make_plan", &MoveBaseRos::onMakePlan, this);
   clear_costmaps_srv_ = private_nh_.advertiseService("clear_costmaps", &MoveBaseRos::onClearCostmaps, this);
   action_server_.registerGoalCallback([this] { onGoal(); });
   action_server_.registerPreemptCallback([this] { onPreempt(); });
   action_server_.start();
   if (lockstep_) {
+    ack_.robot = robot_name_;
     ack_pub_ = nh_.advertise<marl_mrta::LockstepAck>(ack_topic, 100);
-    tick_sub_ = nh_.subscribe(tick_topic, 100, &MoveBaseRos::onTick, this);
+    tick_sub_ = nh_.subscribe(tick_topic, 100, &MoveBaseRos::onTick, this, ros::TransportHints().tcpNoDelay());
     // Re-checks ticks whose inputs are late (wall clock: sim time waits for us).
     wait_timer_ = nh_.createWallTimer(ros::WallDuration(0.05), [this](const ros::WallTimerEvent&) { processTicks(); });
   } else {
@@ -145,121 +147,12 @@ void MoveBaseRos::onSimpleGoal(const geometry_msgs::PoseStamped::ConstPtr& msg) 
   action_goal_pub_.publish(action_goal);
 }
 
-void MoveBaseRos::onOdom(const nav_msgs::Odometry::ConstPtr& msg) {
-  last_odom_ = msg;
-  if (lockstep_) processTicks();
-}
-
-void MoveBaseRos::onScan(size_t input, const sensor_msgs::LaserScan::ConstPtr& msg) {
-  pending_scans_.emplace_back(input, msg);
-  if (msg->header.stamp > last_scan_stamp_) last_scan_stamp_ = msg->header.stamp;
-  if (lockstep_) processTicks();
-}
-
 void MoveBaseRos::onMap(const nav_msgs::OccupancyGrid::ConstPtr& msg) {
   const map::OccupancyMap occupancy = conv::toOccupancyMap(*msg);
   for (LayeredCostmap* costmap : {&core_->globalCostmap(), &core_->localCostmap()}) {
     for (StaticLayer* layer : costmap->layersOfType<StaticLayer>()) layer->setMap(occupancy);
   }
   ROS_INFO("move_base: map %u x %u at %.3f m", msg->info.width, msg->info.height, msg->info.resolution);
-}
-
-void MoveBaseRos::onTick(const marl_mrta::SimTick::ConstPtr& msg) {
-  pending_ticks_.push_back({*msg, ros::WallTime::now()});
-  processTicks();
-}
-
-void MoveBaseRos::onTimer(const ros::TimerEvent&) { controlStep(ros::Time::now(), ros::Time(0)); }
-
-void MoveBaseRos::processTicks() {
-  while (!pending_ticks_.empty()) {
-    const marl_mrta::SimTick tick = pending_ticks_.front().first;
-    marl_mrta::LockstepAck ack;
-    ack.robot = robot_name_;
-    ack.tick = tick.tick;
-    if (static_cast<int64_t>(tick.tick) > last_acked_tick_) {
-      // This tick's inputs travel on other connections: wait for them (bounded by wall time).
-      // Control on the first tick of each controller period counted from time 0, so that the
-      // phase never depends on when move_base started or a goal arrived.
-      const int64_t period_index = static_cast<int64_t>(std::floor(tick.stamp.toSec() / control_period_ + 1e-6));
-      const bool control = period_index != last_control_period_;
-      const bool late = (ros::WallTime::now() - pending_ticks_.front().second).toSec() > tf_wait_;
-      const bool odom_ready = !control || (last_odom_ && last_odom_->header.stamp >= tick.stamp);
-      const bool scan_ready = !tick.scan_published || scan_inputs_.empty() || last_scan_stamp_ >= tick.stamp;
-      if (!(odom_ready && scan_ready) && !late) return;
-      if (late) ROS_WARN_THROTTLE(5.0, "move_base: inputs of tick %lu missing, going on", (unsigned long)tick.tick);
-      last_tick_time_ = tick.stamp;
-      if (control) {
-        last_control_period_ = period_index;
-        controlStep(tick.stamp, tick.stamp);
-      }
-      last_acked_tick_ = static_cast<int64_t>(tick.tick);
-    }
-    ack.cmd_vel_count = cmd_vel_count_;
-    ack_pub_.publish(ack);
-    pending_ticks_.pop_front();
-  }
-}
-
-bool MoveBaseRos::lookupPose(const std::string& target, const std::string& source, const ros::Time& time,
-                             Pose2D& pose, std::string& error) {
-  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(tf_wait_);
-  while (!tf_buffer_.canTransform(target, source, time, &error)) {
-    if (time.isZero() || ros::WallTime::now() > deadline || !ros::ok()) return false;
-    ros::WallDuration(0.0002).sleep();
-  }
-  pose = conv::toPose2D(tf_buffer_.lookupTransform(target, source, time));
-  return true;
-}
-
-void MoveBaseRos::insertScans(const ros::Time& time) {
-  while (!pending_scans_.empty()) {
-    const auto [input, scan] = pending_scans_.front();
-    if (!time.isZero() && scan->header.stamp > time) return;  // belongs to a later tick
-    const ros::Time at = lockstep_ ? scan->header.stamp : ros::Time(0);
-    for (const ScanTarget& target : scan_inputs_[input].targets) {
-      Pose2D sensor, origin;
-      std::string error;
-      if (!lookupPose(target.frame, scan->header.frame_id, at, sensor, error)) {
-        ROS_WARN_THROTTLE(5.0, "move_base: scan dropped, no transform %s <- %s: %s", target.frame.c_str(),
-                          scan->header.frame_id.c_str(), error.c_str());
-        continue;
-      }
-      LaserScanData data{scan->angle_min, scan->angle_increment, scan->range_min, scan->range_max, scan->ranges,
-                         scan->header.stamp.toSec()};
-      const ObservationSourceConfig& source = target.layer->config().sources[target.source];
-      // Height of the sensor (the planar pose leaves it out): only for the height filters.
-      const double z = tf_buffer_.lookupTransform(target.frame, scan->header.frame_id, at).transform.translation.z;
-      Observation observation = laserScanToObservation(data, {sensor.x, sensor.y, z, sensor.yaw}, source);
-      if (!target.sensor_frame.empty() && target.sensor_frame != scan->header.frame_id &&
-          lookupPose(target.frame, target.sensor_frame, at, origin, error)) {
-        observation.origin = {origin.x, origin.y, z};
-      }
-      target.layer->addObservation(target.source, std::move(observation));
-    }
-    pending_scans_.pop_front();
-  }
-}
-
-void MoveBaseRos::controlStep(const ros::Time& stamp, const ros::Time& lookup_time) {
-  insertScans(lookup_time);
-  Pose2D pose_global, pose_local;
-  std::string error;
-  if (!lookupPose(global_frame_, global_base_frame_, lookup_time, pose_global, error) ||
-      !lookupPose(local_frame_, local_base_frame_, lookup_time, pose_local, error)) {
-    ROS_WARN_THROTTLE(5.0, "move_base: robot pose unavailable: %s", error.c_str());
-    if (core_->active()) publishCommand({});
-    return;
-  }
-  const double now = stamp.toSec();
-  core_->updateCostmaps(now, pose_global, pose_local);
-  publishCostmaps(now, stamp);
-  if (!core_->active()) return;
-  Velocity2D velocity;
-  if (last_odom_) velocity = {last_odom_->twist.twist.linear.x, last_odom_->twist.twist.linear.y,
-                              last_odom_->twist.twist.angular.z};
-  const CycleOutput out = core_->runCycle({now, pose_global, pose_local, velocity});
-  publishOutputs(out, pose_global, stamp);
 }
 
 void MoveBaseRos::publishCommand(const Velocity2D& command) {

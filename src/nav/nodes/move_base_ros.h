@@ -1,6 +1,7 @@
 // The move_base node's ROS interface around one MoveBaseCore: the move_base action,
 // move_base_simple/goal, cmd_vel, odom and scan inputs, tf lookups, plan/costmap topics,
 // ~make_plan and ~clear_costmaps, and the simulator's lock-step (ack every SimTick).
+// Inputs, ticks and the control step: move_base_inputs.cpp; the rest: move_base_ros.cpp.
 #pragma once
 
 #include <actionlib/server/simple_action_server.h>
@@ -20,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include <marl_mrta/LockstepAck.h>
 #include <marl_mrta/SimTick.h>
 
 #include "marl_mrta/nav/move_base_core.h"
@@ -87,6 +89,7 @@ class MoveBaseRos {
   std::deque<std::pair<marl_mrta::SimTick, ros::WallTime>> pending_ticks_;  // tick, arrival
   ros::WallTimer wait_timer_;
   ros::Time last_scan_stamp_, last_tick_time_;
+  marl_mrta::LockstepAck ack_;
 
   std::string global_frame_, local_frame_, global_base_frame_, local_base_frame_;
   std::string robot_name_, stats_file_;

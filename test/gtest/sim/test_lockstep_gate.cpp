@@ -11,29 +11,49 @@ TEST(LockstepGate, AdvancesOnlyWhenEveryParticipantAnsweredWithItsCommands) {
   LockstepGate gate({true, false, true});  // robot 1 has no lock-step controller
   EXPECT_FALSE(gate.answered(0));
   EXPECT_EQ(gate.missing(0), (std::vector<int>{0, 2}));
-  EXPECT_TRUE(gate.ackReceived(0, 0, 0, 0));
-  EXPECT_FALSE(gate.ackReceived(1, 0, 0, 0));  // not participating: ignored
+  EXPECT_TRUE(gate.ackReceived(0, 0, 0, 0, 0));
+  EXPECT_FALSE(gate.ackReceived(1, 0, 0, 0, 0));  // not participating: ignored
   EXPECT_FALSE(gate.answered(0));
   // Robot 2 acks one command that has not arrived yet.
-  EXPECT_TRUE(gate.ackReceived(2, 0, 1, 0));
+  EXPECT_TRUE(gate.ackReceived(2, 0, 1, 0, 0));
   EXPECT_EQ(gate.missing(0), (std::vector<int>{2}));
   gate.commandReceived(2);
   EXPECT_TRUE(gate.answered(0));
   // The next tick needs new answers.
   EXPECT_FALSE(gate.answered(1));
-  gate.ackReceived(0, 1, 0, 1);
-  gate.ackReceived(2, 1, 1, 1);
+  gate.ackReceived(0, 1, 0, 0, 1);
+  gate.ackReceived(2, 1, 1, 0, 1);
   EXPECT_TRUE(gate.answered(1));
 }
 
 TEST(LockstepGate, StaleAndEarlyAcksAreIgnored) {
   LockstepGate gate({true});
-  gate.ackReceived(0, 4, 0, 5);  // answer to an earlier (re-sent) tick
+  gate.ackReceived(0, 4, 0, 0, 5);  // answer to an earlier (re-sent) tick
   EXPECT_FALSE(gate.answered(5));
-  gate.ackReceived(0, 6, 0, 5);  // for a tick not reached yet
+  gate.ackReceived(0, 6, 0, 0, 5);  // for a tick not reached yet
   EXPECT_FALSE(gate.answered(5));
-  gate.ackReceived(0, 5, 0, 5);
+  gate.ackReceived(0, 5, 0, 0, 5);
   EXPECT_TRUE(gate.answered(5));
+}
+
+TEST(LockstepGate, TicksBeforeTheNextNeededOneAreNotWaitedFor) {
+  LockstepGate gate({true, true});
+  gate.ackReceived(0, 10, 0, 12, 10);  // robot 0 acts again at tick 12
+  gate.ackReceived(1, 10, 0, 0, 10);   // robot 1 answers every tick
+  EXPECT_TRUE(gate.answered(10));
+  EXPECT_EQ(gate.missing(11), (std::vector<int>{1}));
+  gate.ackReceived(1, 11, 0, 0, 11);
+  EXPECT_TRUE(gate.answered(11));
+  EXPECT_EQ(gate.missing(12), (std::vector<int>{0, 1}));
+  // A command counted by the skipping ack still has to arrive before any later tick.
+  gate.ackReceived(0, 12, 1, 14, 12);
+  gate.ackReceived(1, 12, 0, 0, 12);
+  EXPECT_EQ(gate.missing(12), (std::vector<int>{0}));
+  EXPECT_EQ(gate.missing(13), (std::vector<int>{0, 1}));
+  gate.commandReceived(0);
+  gate.ackReceived(1, 13, 0, 0, 13);
+  EXPECT_TRUE(gate.answered(13));
+  EXPECT_FALSE(gate.answered(14));
 }
 
 TEST(LockstepGate, NobodyParticipatingNeverWaits) {

@@ -1,0 +1,198 @@
+"""`scripts/bench_mappo --ros`: time to policy on the ros backend (lab_2r, ROS simulation).
+
+Starts its own graph (`tasks.launch arenas:=K mask:=logic`, lock-step, as fast as possible,
+built-in navigation, on a private master port) and measures, against the exact plan's
+makespan *in the same simulation* (its one episode run first; target = 1.05 × that):
+
+- `pretrained`: the tuned preset trains on the embedded backend until its greedy policy is
+  within 5 % of the embedded exact optimum; the greedy policy is then evaluated in the K ROS
+  arenas (one episode each); if it is not yet within 5 % of the ROS exact makespan, training
+  goes on on the ros backend from that checkpoint (networks, optimisers, normaliser), with a
+  greedy evaluation in the arenas after every update. Time to policy = embedded training +
+  ROS evaluations and training (graph start-up excluded, reported apart).
+- `scratch`: the tuned preset on the ros backend alone (n_envs = K) with a greedy evaluation
+  in the arenas after every update, until the target or `--ros-minutes`.
+The results go into the `ros` section and the headline of <out>/bench_mappo.json; the
+embedded figures there are kept.
+"""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import threading
+import time
+from dataclasses import replace
+from pathlib import Path
+from typing import Any, Callable, Dict, List, Optional
+
+from .config import MappoConfig
+from .runner import Runner
+
+WITHIN = 1.05
+
+
+class GraphError(RuntimeError):
+    """The ROS graph did not come up; str(error) is one line."""
+
+
+class RosGraph:
+    """tasks.launch with K arenas on a private master, stopped on exit."""
+
+    def __init__(self, scenario: str, arenas: int, port: int, log_file: Path):
+        self.command = ["roslaunch", "-p", str(port), "marl_mrta", "tasks.launch", f"scenario:={scenario}",
+                        f"arenas:={arenas}", "mask:=logic"]
+        self.port = port
+        self.log_file = log_file
+        self.process: Optional[subprocess.Popen] = None
+
+    def __enter__(self) -> "RosGraph":
+        os.environ["ROS_MASTER_URI"] = f"http://localhost:{self.port}"
+        self.log_file.parent.mkdir(parents=True, exist_ok=True)
+        self._log = open(self.log_file, "w")
+        self.process = subprocess.Popen(self.command, stdout=self._log, stderr=subprocess.STDOUT,
+                                        start_new_session=True)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self.process is not None and self.process.poll() is None:
+            os.killpg(self.process.pid, signal.SIGINT)
+            try:
+                self.process.wait(timeout=60)
+            except subprocess.TimeoutExpired:
+                os.killpg(self.process.pid, signal.SIGKILL)
+        self._log.close()
+
+
+def exact_in_ros(pool, scenario, log) -> Dict[str, Any]:
+    """The exact plan's episode in arena 0 of the simulation (the reference of the target)."""
+    from ..baselines.plan import SchedulingInstance
+    from ..baselines.settings import load_baseline_settings
+    from ..env.factory import scenario_travel_table
+    from ..evaluation.cli import exact_reference
+    from ..evaluation.policies import PlanPolicy
+    from ..evaluation.runner import run_episodes
+
+    client = pool.envs[0].env
+    instance = SchedulingInstance.from_scenario(scenario, scenario_travel_table(scenario), client.settings.min_step)
+    plan = exact_reference(instance, load_baseline_settings())
+    started = time.perf_counter()
+    record = run_episodes(client, PlanPolicy(plan, client.n_agents, client.n_tasks), 1, 0)[0]
+    log(f"exact plan in the ROS simulation: {record.makespan:.2f} s (nominal {plan.makespan:.2f} s), "
+        f"{time.perf_counter() - started:.1f} s wall")
+    return {"makespan_s": float(record.makespan), "nominal_makespan_s": plan.makespan,
+            "complete": bool(record.complete), "robot_tasks": plan.describe(instance.task_ids)}
+
+
+def _stop_after(runner: Runner, minutes: float) -> threading.Timer:
+    timer = threading.Timer(minutes * 60.0, lambda: setattr(runner, "stop_requested", True))
+    timer.daemon = True
+    timer.start()
+    return timer
+
+
+def _ros_run(runner: Runner, minutes: float, log) -> Dict[str, Any]:
+    timer = _stop_after(runner, minutes)
+    try:
+        summary = runner.run()
+    finally:
+        timer.cancel()
+    evaluations = runner.history["evaluations"]
+    return {"updates": summary.updates, "env_steps": summary.env_steps, "episodes": summary.episodes,
+            "wall_s": round(summary.wall_time, 1), "time_to_policy_s": summary.time_to_target,
+            "steps_to_policy": summary.steps_to_target,
+            "greedy_makespans_s": [round(e["makespan"], 2) for e in evaluations],
+            "steps_per_s": round(summary.env_steps / summary.wall_time, 3) if summary.wall_time else None,
+            "actor": str(runner.actor_path)}
+
+
+def measure(tuned: MappoConfig, scenario_path: str, arenas: int, minutes: float, port: int, seed: int,
+            runs: Path, embedded_target: float, train_embedded: Callable, modes: List[str], log) -> Dict[str, Any]:
+    from .cli import ros_pool
+
+    ros_config = replace(tuned, n_envs=arenas, eval_every=1, eval_episodes=arenas)
+    result: Dict[str, Any] = {"arenas": arenas, "criterion": f"greedy makespan in the ROS simulation <= {WITHIN} x "
+                              "the exact plan's makespan in the same simulation", "seed": seed}
+    with RosGraph(scenario_path, arenas, port, runs / "ros_graph.log"):
+        started = time.perf_counter()
+        from ..ros.env_client import ManagerUnavailable
+        from .runner import RunError
+        try:
+            pool, scenario_file = ros_pool(ros_config, seed, scenario_path, manager_wait=300.0)
+        except (ManagerUnavailable, RunError) as error:
+            raise GraphError(f"{error} (graph log: {runs / 'ros_graph.log'})") from None
+        result["graph_startup_s"] = round(time.perf_counter() - started, 1)
+        from ..scenario import load_scenario
+        exact = exact_in_ros(pool, load_scenario(scenario_file), log)
+        target = WITHIN * exact["makespan_s"]
+        result["exact_in_ros"] = exact
+        result["target_s"] = round(target, 3)
+
+        if "pretrained" in modes:
+            log(f"pretrained: embedded training to {embedded_target:.2f} s, then the ROS arenas (target {target:.2f} s)")
+            embedded = train_embedded(replace(tuned, eval_every=1), scenario_path, seed, runs / "ros_pretrain",
+                                      embedded_target, True, log)
+            out = runs / "ros_pretrained"
+            shutil.rmtree(out, ignore_errors=True)
+            runner = Runner(ros_config, None, scenario=scenario_file, seed=seed, out_dir=out, log=log,
+                            target_makespan=target, stop_at_target=True, tensorboard=False, plots=False, pool=pool)
+            stored = Runner.read_checkpoint(Path(embedded["actor"]).with_name("checkpoint.pt"))
+            runner.trainer.load_state_dict(stored["trainer"])
+            runner.start()
+            first = runner.evaluate()
+            log(f"  embedded actor greedy in ROS: {first['makespan']:.2f} s ({first['wall_time']:.1f} s wall)")
+            ros_part = {"first_greedy_makespan_s": round(first["makespan"], 2)}
+            if runner.time_to_target is None:
+                ros_part.update(_ros_run(runner, minutes, log))
+            else:
+                runner.save_checkpoint()
+                ros_part.update(updates=0, env_steps=0, wall_s=round(runner.wall_time, 1),
+                                time_to_policy_s=runner.time_to_target, actor=str(runner.actor_path))
+            reached = runner.time_to_target
+            total = None if reached is None else round(embedded["time_to_policy_s"] + reached, 2)
+            result["pretrained"] = {"embedded": embedded, "ros": ros_part, "time_to_policy_s": total}
+            log(f"  pretrained: time to policy {total} s (embedded {embedded['time_to_policy_s']} s + ROS "
+                f"{None if reached is None else round(reached, 1)} s)")
+
+        if "scratch" in modes:
+            log(f"scratch: tuned preset on {arenas} ROS arenas, at most {minutes:g} min (target {target:.2f} s)")
+            out = runs / "ros_scratch"
+            shutil.rmtree(out, ignore_errors=True)
+            runner = Runner(ros_config, None, scenario=scenario_file, seed=seed, out_dir=out, log=log,
+                            target_makespan=target, stop_at_target=True, tensorboard=False, plots=False, pool=pool)
+            runner.start()
+            scratch = _ros_run(runner, minutes, log)
+            scratch["cap_minutes"] = minutes
+            result["scratch"] = scratch
+            log(f"  scratch: time to policy {scratch['time_to_policy_s']} s after {scratch['env_steps']} steps "
+                f"({scratch['steps_per_s']} steps/s); greedy {scratch['greedy_makespans_s']}")
+        pool.close()
+    return result
+
+
+def merge_into(path: Path, ros: Dict[str, Any]) -> Dict[str, Any]:
+    """bench_mappo.json with its `ros` section and ros headline rows replaced, the rest kept."""
+    document = json.loads(path.read_text()) if path.exists() else {"headline": []}
+    document["ros"] = ros
+    rows = [row for row in document.get("headline", []) if "ros" not in row["figure"]]
+    pretrained = ros.get("pretrained", {})
+    if pretrained:
+        rows.append({"figure": f"time to policy, ros backend, lab_2r (embedded pretraining + {ros['arenas']} ROS arenas)",
+                     "value": pretrained.get("time_to_policy_s"), "unit": "s", "goal": "<= 600"})
+    scratch = ros.get("scratch")
+    if scratch:
+        reached = scratch.get("time_to_policy_s")
+        rows.append({"figure": f"time to policy, ros backend from scratch, lab_2r ({ros['arenas']} arenas, "
+                               f"cap {scratch['cap_minutes']:g} min)",
+                     "value": round(reached, 1) if reached is not None else f"> {scratch['cap_minutes'] * 60:.0f}",
+                     "unit": "s", "goal": "<= 600"})
+        rows.append({"figure": f"ros backend training throughput ({ros['arenas']} arenas)",
+                     "value": scratch.get("steps_per_s"), "unit": "steps/s", "goal": ""})
+    rows.append({"figure": "exact plan makespan in the ros simulation (reference of the ros target)",
+                 "value": round(ros["exact_in_ros"]["makespan_s"], 2), "unit": "s", "goal": ""})
+    document["headline"] = rows
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(document, indent=2))
+    return document
