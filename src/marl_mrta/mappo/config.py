@@ -13,11 +13,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Dict, Optional, Tuple, Union
 
-import yaml
-
 from ..env.settings import MASK_MODES
 from ..tasks.config_reader import package_root
 from ..tasks.reward import REWARD_SCHEMA
+from ..yaml_file import YamlFileError, load_yaml_file
 
 
 def preset_dir() -> Path:
@@ -196,16 +195,9 @@ def load_config(path: Union[str, Path], overrides: Optional[Dict[str, Any]] = No
     """The settings in a YAML file (absent keys keep their defaults), then `overrides` on top."""
     path = Path(path)
     try:
-        text = path.read_text()
-    except OSError as error:
-        raise ConfigError(f"{path}: cannot read: {error.strerror}") from None
-    try:
-        values = yaml.safe_load(text)
-    except yaml.YAMLError as error:
-        mark = getattr(error, "problem_mark", None)
-        line = f" line {mark.line + 1}" if mark is not None else ""
-        problem = getattr(error, "problem", None) or "invalid YAML"
-        raise ConfigError(f"{path}:{line}: {problem}") from None
+        values = load_yaml_file(path)
+    except YamlFileError as error:
+        raise ConfigError(str(error)) from None
     values = {} if values is None else values
     if not isinstance(values, dict):
         raise ConfigError(f"{path}: expected a mapping of setting names to values, got {type(values).__name__}")
