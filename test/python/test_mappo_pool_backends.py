@@ -101,6 +101,7 @@ class _StopAfter:
     def __init__(self, env, runner_box, steps):
         self.env, self.box, self.left = env, runner_box, steps
         self.n_agents, self.n_actions, self.obs_dim, self.state_dim = env.n_agents, env.n_actions, env.obs_dim, env.state_dim
+        self.scenario = env.scenario
 
     def reset(self, seed=None):
         return self.env.reset(seed=seed)

@@ -45,7 +45,7 @@ def test_policy_method_runs_a_saved_actor(tmp_path, capsys):
     torch.manual_seed(0)
     actor_path = tmp_path / "actor.pt"
     save_actor(actor_path, Actor(env.obs_dim, env.n_actions, 16), obs_dim=env.obs_dim, n_agents=env.n_agents,
-               append_agent_id=False, settings={}, scenario=LAB_2R)
+               append_agent_id=False, settings={}, scenario=LAB_2R, predecessors=env.scenario.predecessors)
     out = tmp_path / "policy.json"
     code = main(["--method", "policy", "--policy", str(actor_path), "--scenario", LAB_2R, "--episodes", "2",
                  "--no-exact", "--out", str(out), "--quiet"])

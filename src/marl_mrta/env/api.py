@@ -6,9 +6,12 @@ this interface, so a policy trained against one executor runs unchanged against 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Dict, Optional, Protocol, Sequence
+from typing import TYPE_CHECKING, Any, Dict, Optional, Protocol, Sequence
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from ..scenario import Scenario
 
 #: Names of the reward components, in the order of SPEC's reward formula.
 REWARD_COMPONENTS = ("logic", "nav", "collision", "idle")
@@ -36,6 +39,7 @@ class TaskAllocationEnv(Protocol):
     n_actions: int   # number of tasks + 1; the last action index is None (stay idle)
     obs_dim: int
     state_dim: int
+    scenario: "Scenario"   # robots, tasks and their predecessors (marl_mrta.scenario)
 
     def reset(self, seed: Optional[int] = None) -> StepOutput: ...
 

@@ -75,6 +75,6 @@ class LearnedPolicy:
         self._hidden = self.actor.initial_hidden(self.n_agents)
 
     def act(self, output: StepOutput) -> List[int]:
-        actions, self._hidden = self.actor.act(output.obs, output.action_mask, self._hidden,
+        actions, self._hidden = self.actor.act_team(output.obs, output.action_mask, self._hidden,
                                                deterministic=self.deterministic)
         return [int(a) for a in np.asarray(actions).reshape(-1)]

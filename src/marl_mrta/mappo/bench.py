@@ -23,7 +23,7 @@ import numpy as np
 
 from ..baselines.exact import solve_exact
 from ..baselines.plan import SchedulingInstance
-from .cli import env_factory
+from .cli import env_factory, parse_overrides
 from .config import ConfigError, MappoConfig, load_config, resolve_preset
 from .env_pool import episode_seed, evaluate_greedy
 from .runner import Runner
@@ -86,7 +86,7 @@ def learned_allocation(actor_path: str, make_env, task_ids: List[str], episodes:
 
     def act(obs, mask, hidden):
         hidden = policy.initial_hidden(len(obs)) if hidden is None else hidden
-        return policy.act(obs, mask, hidden, deterministic=True)
+        return policy.act_team(obs, mask, hidden, deterministic=True)
 
     records = evaluate_greedy(act, make_env, [episode_seed(seed, 0, k) for k in range(episodes)])
     return {"robot_tasks": records[0].robot_tasks,
@@ -112,11 +112,16 @@ def main(argv: Optional[List[str]] = None) -> int:
     parser.add_argument("--ros-modes", default="pretrained,scratch",
                         help="--ros: pretrained (embedded training, then ROS) and/or scratch (ROS only)")
     parser.add_argument("--ros-port", type=int, default=11599, help="--ros: port of the benchmark's own ROS master")
+    parser.add_argument("--preset", default="tuned",
+                        help="settings of the time-to-policy runs: tuned | sequential | paper | a YAML (default tuned)")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                        help="override one setting of --preset (YAML value), as scripts/train --set")
     args = parser.parse_args(argv)
     out = Path(args.out)
     runs = out / "tmp" / "bench_mappo"
     log = lambda line: print(line, flush=True)  # noqa: E731
     try:
+        chosen = load_config(resolve_preset(args.preset), parse_overrides(args.set))
         tuned = load_config(resolve_preset("tuned"))
         paper = load_config(resolve_preset("paper"))
         make_env = env_factory(args.scenario, tuned)
@@ -129,13 +134,13 @@ def main(argv: Optional[List[str]] = None) -> int:
     log(f"exact: {plan.makespan:.2f} s (proven {plan.proven_optimal}), allocation {plan.describe(instance.task_ids)}")
 
     if args.ros:
-        return _main_ros(args, tuned, target, out, runs, log)
+        return _main_ros(args, chosen, target, out, runs, log)
 
     bare = env_steps_per_second(make_env)
     log(f"bare environment: {bare:.0f} steps/s")
 
-    log(f"time to policy (tuned, greedy makespan <= {target:.2f} s):")
-    fine = replace(tuned, eval_every=1)
+    log(f"time to policy ({args.preset}, greedy makespan <= {target:.2f} s):")
+    fine = replace(chosen, eval_every=1)
     to_policy = [train(fine, args.scenario, seed, runs / f"tuned_s{seed}", target, True, log) for seed in range(args.seeds)]
     times = [r["time_to_policy_s"] for r in to_policy]
     reached = [t for t in times if t is not None]
@@ -164,16 +169,17 @@ def main(argv: Optional[List[str]] = None) -> int:
         "exact": {"makespan_s": plan.makespan, "proven_optimal": plan.proven_optimal,
                   "robot_tasks": plan.describe(instance.task_ids)},
         "env_steps_per_s": {"bare_environment": round(bare, 1),
-                            "training_tuned": rate},
-        "time_to_policy": {"criterion": f"greedy makespan <= {WITHIN} x exact", "preset": "tuned",
+                            f"training_{args.preset}": rate},
+        "time_to_policy": {"criterion": f"greedy makespan <= {WITHIN} x exact", "preset": args.preset,
+                           "overrides": args.set,
                            "median_s": median, "runs": to_policy},
         "same_budget": {"env_steps": args.budget, **comparison},
         "allocation": {"learned": allocation, "learned_under_measured_tb3_noise": noisy,
                        "paper": PAPER_ALLOCATION, "exact": plan.describe(instance.task_ids)},
         "headline": [
-            {"figure": "time to policy, embedded, lab_2r (median)", "value": median, "unit": "s", "goal": "<= 60"},
+            {"figure": f"time to policy, embedded, lab_2r (median, {args.preset})", "value": median, "unit": "s", "goal": "<= 60"},
             {"figure": "time-to-policy runs that reached it", "value": f"{len(reached)}/{len(times)}", "unit": "", "goal": ""},
-            {"figure": "training throughput (tuned)", "value": rate, "unit": "steps/s", "goal": ""},
+            {"figure": f"training throughput ({args.preset})", "value": rate, "unit": "steps/s", "goal": ""},
             {"figure": "bare embedded environment", "value": round(bare, 1), "unit": "steps/s", "goal": ""},
             {"figure": f"tuned greedy / exact, {args.budget} steps", "value": comparison["tuned"]["ratio_to_exact"], "unit": "", "goal": "<= 1.10"},
             {"figure": f"paper greedy / exact, {args.budget} steps", "value": comparison["paper"]["ratio_to_exact"], "unit": "", "goal": ""},
@@ -199,6 +205,7 @@ def _main_ros(args, tuned: MappoConfig, embedded_target: float, out: Path, runs:
     try:
         ros = measure(tuned, scenario, args.arenas, args.ros_minutes, args.ros_port, 0, runs.resolve(),
                       embedded_target, train, modes, log)
+        ros["preset"], ros["overrides"] = args.preset, args.set
     except GraphError as error:
         print(f"bench_mappo: {error}", file=sys.stderr)
         return 1

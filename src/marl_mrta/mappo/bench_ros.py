@@ -1,6 +1,6 @@
 """`scripts/bench_mappo --ros`: time to policy on the ros backend (lab_2r, ROS simulation).
 
-Starts its own graph (`tasks.launch arenas:=K mask:=logic`, lock-step, as fast as possible,
+Starts its own graph (`tasks.launch arenas:=K mask:=<the preset's action_mask>`, lock-step, as fast as possible,
 built-in navigation, on a private master port) and measures, against the exact plan's
 makespan *in the same simulation* (its one episode run first; target = 1.05 × that):
 
@@ -10,7 +10,7 @@ makespan *in the same simulation* (its one episode run first; target = 1.05 × t
   goes on on the ros backend from that checkpoint (networks, optimisers, normaliser), with a
   greedy evaluation in the arenas after every update. Time to policy = embedded training +
   ROS evaluations and training (graph start-up excluded, reported apart).
-- `scratch`: the tuned preset on the ros backend alone (n_envs = K) with a greedy evaluation
+- `scratch`: the preset (`--preset`, default tuned) on the ros backend alone (n_envs = K) with a greedy evaluation
   in the arenas after every update, until the target or `--ros-minutes`.
 The results go into the `ros` section and the headline of <out>/bench_mappo.json; the
 embedded figures there are kept.
@@ -41,9 +41,9 @@ class GraphError(RuntimeError):
 class RosGraph:
     """tasks.launch with K arenas on a private master, stopped on exit."""
 
-    def __init__(self, scenario: str, arenas: int, port: int, log_file: Path):
+    def __init__(self, scenario: str, arenas: int, port: int, log_file: Path, mask: str):
         self.command = ["roslaunch", "-p", str(port), "marl_mrta", "tasks.launch", f"scenario:={scenario}",
-                        f"arenas:={arenas}", "mask:=logic"]
+                        f"arenas:={arenas}", f"mask:={mask}"]
         self.port = port
         self.log_file = log_file
         self.process: Optional[subprocess.Popen] = None
@@ -54,6 +54,14 @@ class RosGraph:
         self._log = open(self.log_file, "w")
         self.process = subprocess.Popen(self.command, stdout=self._log, stderr=subprocess.STDOUT,
                                         start_new_session=True)
+        # roslaunch starts its master first; the pool then waits for the managers themselves.
+        import rosgraph
+        deadline = time.monotonic() + 120.0
+        while not rosgraph.is_master_online():
+            if self.process.poll() is not None or time.monotonic() > deadline:
+                self.__exit__(None, None, None)
+                raise GraphError(f"roslaunch did not bring up a master on port {self.port} (log: {self.log_file})")
+            time.sleep(0.5)
         return self
 
     def __exit__(self, *exc) -> None:
@@ -115,7 +123,7 @@ def measure(tuned: MappoConfig, scenario_path: str, arenas: int, minutes: float,
     ros_config = replace(tuned, n_envs=arenas, eval_every=1, eval_episodes=arenas)
     result: Dict[str, Any] = {"arenas": arenas, "criterion": f"greedy makespan in the ROS simulation <= {WITHIN} x "
                               "the exact plan's makespan in the same simulation", "seed": seed}
-    with RosGraph(scenario_path, arenas, port, runs / "ros_graph.log"):
+    with RosGraph(scenario_path, arenas, port, runs / "ros_graph.log", tuned.action_mask):
         started = time.perf_counter()
         from ..ros.env_client import ManagerUnavailable
         from .runner import RunError
@@ -157,7 +165,7 @@ def measure(tuned: MappoConfig, scenario_path: str, arenas: int, minutes: float,
                 f"{None if reached is None else round(reached, 1)} s)")
 
         if "scratch" in modes:
-            log(f"scratch: tuned preset on {arenas} ROS arenas, at most {minutes:g} min (target {target:.2f} s)")
+            log(f"scratch: {ros_config.decision_order} decisions, batch {ros_config.batch_size}, on {arenas} ROS arenas, at most {minutes:g} min (target {target:.2f} s)")
             out = runs / "ros_scratch"
             shutil.rmtree(out, ignore_errors=True)
             runner = Runner(ros_config, None, scenario=scenario_file, seed=seed, out_dir=out, log=log,

@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any, Dict, Optional, Tuple, Union
 
 from ..env.settings import MASK_MODES
+from .claims import DECISION_ORDERS
 from ..tasks.config_reader import package_root
 from ..tasks.reward import REWARD_SCHEMA
 from ..yaml_file import YamlFileError, load_yaml_file
@@ -52,6 +53,10 @@ class MappoConfig:
     # Environment the run trains on (evaluation should use the same; both are kept in actor.pt)
     action_mask: str = setting("none", "environment action masks: none (the paper) | finished | logic",
                                choices=MASK_MODES)
+    decision_order: str = setting("simultaneous", "robots choose at once (the paper) | sequential: in index order, "
+                                  "each seeing and unable to take the tasks claimed before it | sequential_logic: "
+                                  "also only tasks whose predecessors are finished or claimed (mappo/claims.py)",
+                                  choices=DECISION_ORDERS)
     noise_profile: str = setting("nominal", "embedded executor noise profile, a name in config/task_embedded.yaml")
     reward_overrides: Dict[str, Dict[str, float]] = setting(
         {}, "reward values replaced for training, as in a scenario's <reward>: {section: {key: value}} over config/reward.yaml")
@@ -169,6 +174,9 @@ def _check_consistency(source: str, config: MappoConfig) -> None:
     """Relations between settings; each failure names the key that has to change."""
     if config.batch_size % config.n_envs:
         raise ConfigError(f"{source}: batch_size: {config.batch_size} is not divisible by n_envs = {config.n_envs}")
+    if config.decision_order == "sequential_logic" and config.action_mask != "finished":
+        raise ConfigError(f"{source}: action_mask: decision_order sequential_logic reads which tasks are finished "
+                          f"from the environment's mask, so it needs action_mask finished, not {config.action_mask}")
     if config.rollout_length % config.chunk_length:
         raise ConfigError(f"{source}: chunk_length: {config.chunk_length} does not divide batch_size / n_envs = "
                           f"{config.rollout_length}")

@@ -101,6 +101,8 @@ class EnvPool:
         self._threads = ThreadPoolExecutor(max_workers=n_envs, thread_name_prefix="env") if parallel else None
         self.n_agents, self.n_actions = first.n_agents, first.n_actions
         self.obs_dim, self.state_dim = first.obs_dim, first.state_dim
+        #: Per task, the indices of its predecessors (the claim rules of a sequential decision order).
+        self.predecessors: List[List[int]] = [[int(p) for p in preds] for preds in first.scenario.predecessors]
         self.run_seed = run_seed
         self.episode_index = [0] * n_envs
         self.episode_actions: List[List[List[int]]] = [[] for _ in range(n_envs)]

@@ -13,6 +13,7 @@ from typing import Any, Dict, Optional, Sequence, Tuple, Union
 import numpy as np
 import torch
 
+from .claims import ClaimRules, claimed_flags, with_claims
 from .networks import Actor, masked_logits, sample_actions
 
 ACTOR_FORMAT = "marl_mrta.mappo.actor/1"
@@ -35,7 +36,8 @@ def atomic_torch_save(obj: Any, path: Union[str, Path]) -> None:
 
 
 def save_actor(path: Union[str, Path], actor: Actor, *, obs_dim: int, n_agents: int,
-               append_agent_id: bool, settings: Dict[str, Any], scenario: str) -> None:
+               append_agent_id: bool, settings: Dict[str, Any], scenario: str,
+               predecessors: Sequence[Sequence[int]]) -> None:
     """Write the standalone actor file (atomically)."""
     atomic_torch_save({
         "format": ACTOR_FORMAT,
@@ -47,6 +49,7 @@ def save_actor(path: Union[str, Path], actor: Actor, *, obs_dim: int, n_agents: 
         "append_agent_id": append_agent_id,
         "settings": settings,
         "scenario": scenario,
+        "predecessors": [[int(p) for p in preds] for preds in predecessors],
     }, path)
 
 
@@ -54,11 +57,19 @@ class ActorPolicy:
     """Acts for any subset of robots from their own observations; carries no global state."""
 
     def __init__(self, actor: Actor, *, obs_dim: int, n_agents: int, append_agent_id: bool,
-                 settings: Dict[str, Any], seed: int = 0, source: str = ""):
+                 settings: Dict[str, Any], seed: int = 0, source: str = "",
+                 predecessors: Optional[Sequence[Sequence[int]]] = None):
         self.actor = actor.eval()
         self.settings = dict(settings)
         #: The environment's action-mask mode during training; evaluate with the same one.
         self.action_mask: str = self.settings.get("action_mask", "none")
+        #: Sequential: robots decide in index order, each seeing the tasks claimed before it (mappo/claims.py).
+        self.decision_order: str = self.settings.get("decision_order", "simultaneous")
+        self.sequential: bool = self.decision_order != "simultaneous"
+        #: Per task, its predecessors (the scenario the actor was trained on).
+        self.predecessors = [list(p) for p in predecessors] if predecessors is not None \
+            else [[] for _ in range(actor.n_actions - 1)]
+        self.claim_rules = ClaimRules(self.decision_order, self.predecessors)
         self.obs_dim = obs_dim
         self.n_agents = n_agents
         self.n_actions = actor.n_actions
@@ -71,20 +82,53 @@ class ActorPolicy:
         return self.actor.initial_hidden(n_agents)
 
     @torch.no_grad()
+    def act_team(self, obs: np.ndarray, action_mask: Optional[np.ndarray], hidden: torch.Tensor,
+                 deterministic: bool = True) -> Tuple[np.ndarray, torch.Tensor]:
+        """One decision of the whole team (robots 0..n-1), in the order the actor was trained
+        with: at once, or one after another with the tasks claimed so far (mappo/claims.py)."""
+        if not self.sequential:
+            return self.act(obs, action_mask, hidden, deterministic)
+        n_tasks = self.n_actions - 1
+        actions = np.zeros(0, dtype=np.int64)
+        hidden_rows = []
+        for i in range(len(obs)):
+            claimed = claimed_flags(torch.as_tensor(actions).unsqueeze(0), n_tasks).numpy()
+            action, hidden_i = self.act(np.asarray(obs)[i:i + 1], None if action_mask is None else
+                                        np.asarray(action_mask)[i:i + 1], hidden[i:i + 1], deterministic,
+                                        agent_ids=[i], claimed=claimed)
+            actions = np.append(actions, action)
+            hidden_rows.append(hidden_i)
+        return actions, torch.cat(hidden_rows, 0)
+
+    @torch.no_grad()
     def act(self, obs: np.ndarray, action_mask: Optional[np.ndarray], hidden: torch.Tensor,
-            deterministic: bool = True, agent_ids: Optional[Sequence[int]] = None) -> Tuple[np.ndarray, torch.Tensor]:
+            deterministic: bool = True, agent_ids: Optional[Sequence[int]] = None,
+            claimed: Optional[np.ndarray] = None) -> Tuple[np.ndarray, torch.Tensor]:
         """One decision. obs (k, obs_dim) for robots agent_ids (default 0..k-1), action_mask
-        (k, n_actions) bool or None, hidden (k, H) from initial_hidden() or the last call.
-        Returns actions (k,) int64 (greedy when deterministic) and the new hidden state."""
+        (k, n_actions) bool or None, hidden (k, H) from initial_hidden() or the last call;
+        claimed (k, n_tasks) bool: the tasks claimed before each robot in this step (a
+        sequential actor only; default none). Returns actions (k,) int64 (greedy when
+        deterministic) and the new hidden state."""
         obs_t = torch.as_tensor(np.asarray(obs, dtype=np.float32))
         if obs_t.ndim != 2 or obs_t.shape[1] != self.obs_dim:
             raise ValueError(f"{self.source}: observation shape {tuple(obs_t.shape)}, the actor expects (k, {self.obs_dim})")
         ids = list(range(obs_t.shape[0])) if agent_ids is None else list(agent_ids)
+        mask_t = None if action_mask is None else torch.as_tensor(np.asarray(action_mask, dtype=bool))
+        if self.sequential:
+            n_tasks = self.n_actions - 1
+            claimed_t = torch.zeros(obs_t.shape[0], n_tasks, dtype=torch.bool) if claimed is None \
+                else torch.as_tensor(np.asarray(claimed, dtype=bool))
+            if claimed_t.shape != (obs_t.shape[0], n_tasks):
+                raise ValueError(f"{self.source}: claimed shape {tuple(claimed_t.shape)}, the actor expects "
+                                 f"({obs_t.shape[0]}, {n_tasks})")
+            obs_t = with_claims(obs_t, claimed_t)
+            if mask_t is None:
+                mask_t = torch.ones(obs_t.shape[0], self.n_actions, dtype=torch.bool)
+            mask_t = self.claim_rules.mask(mask_t, claimed_t)
         if self.append_agent_id:
             if any(i < 0 or i >= self.n_agents for i in ids):
                 raise ValueError(f"{self.source}: robot index out of range 0..{self.n_agents - 1}: {ids}")
             obs_t = torch.cat([obs_t, torch.eye(self.n_agents)[ids]], dim=-1)
-        mask_t = None if action_mask is None else torch.as_tensor(np.asarray(action_mask, dtype=bool))
         k = obs_t.shape[0]
         out = self.actor(obs_t.unsqueeze(0), hidden, torch.zeros(1, k, dtype=torch.bool),
                          None if mask_t is None else mask_t.unsqueeze(0))
@@ -109,12 +153,13 @@ def load_policy(path: Union[str, Path], seed: int = 0) -> ActorPolicy:
         data = data["actor_file"]
     if not isinstance(data, dict) or data.get("format") != ACTOR_FORMAT:
         raise PolicyFileError(f"{path}: format: not a {ACTOR_FORMAT} actor file")
-    actor = Actor(data["obs_dim"] + (data["n_agents"] if data["append_agent_id"] else 0),
-                  data["n_actions"], data["hidden_size"])
+    sequential = dict(data.get("settings", {})).get("decision_order", "simultaneous") != "simultaneous"
+    actor = Actor(data["obs_dim"] + (data["n_actions"] - 1 if sequential else 0)
+                  + (data["n_agents"] if data["append_agent_id"] else 0), data["n_actions"], data["hidden_size"])
     try:
         actor.load_state_dict(data["weights"])
     except RuntimeError:
         raise PolicyFileError(f"{path}: weights: do not match the stored dimensions") from None
     return ActorPolicy(actor, obs_dim=data["obs_dim"], n_agents=data["n_agents"],
                        append_agent_id=data["append_agent_id"], settings=data["settings"], seed=seed,
-                       source=str(path))
+                       source=str(path), predecessors=data.get("predecessors"))

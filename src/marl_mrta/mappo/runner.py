@@ -32,6 +32,7 @@ import torch
 
 from ..env.api import TaskAllocationEnv
 from .buffer import RolloutBuffer
+from .claims import ClaimRules, claimed_flags, with_claims
 from .config import MappoConfig, config_from_dict, config_to_dict
 from .env_pool import EnvPool, EpisodeSummary, PoolStep, episode_seed, evaluate_greedy
 from .networks import log_prob_and_entropy, sample_actions
@@ -117,6 +118,7 @@ class Runner:
             raise RunError(f"n_envs: the settings ask for {config.n_envs} environments, the pool has {pool.n_envs}")
         self.pool = pool
         self.n_agents = self.pool.n_agents
+        self.claim_rules = ClaimRules(config.decision_order, self.pool.predecessors)
         self.trainer = MappoTrainer(config, self.pool.obs_dim, self.pool.state_dim, self.n_agents, self.pool.n_actions)
         self.buffer = RolloutBuffer(config.rollout_length, config.n_envs, self.n_agents, self.trainer.actor_obs_dim,
                                     self.pool.state_dim, self.pool.n_actions, config.hidden_size)
@@ -211,7 +213,7 @@ class Runner:
         atomic_torch_save(data, self.checkpoint_path)
         save_actor(self.actor_path, self.trainer.actor, obs_dim=self.pool.obs_dim, n_agents=self.n_agents,
                    append_agent_id=self.config.append_agent_id, settings=config_to_dict(self.config),
-                   scenario=self.scenario)
+                   scenario=self.scenario, predecessors=self.pool.predecessors)
 
     # ---------------------------------------------------------------- the loop
     @torch.no_grad()
@@ -224,15 +226,9 @@ class Runner:
             if self.stop_requested and not self.pool.replayable:
                 raise _UpdateAbandoned
             step = self.current
-            obs = self.trainer.actor_obs(torch.from_numpy(step.obs).float())          # (E, N, D)
             state = torch.from_numpy(step.state).float()
-            mask = torch.from_numpy(step.action_mask)
-            out = self.trainer.actor(obs.reshape(1, E * N, -1), self.hidden.reshape(E * N, -1),
-                                     self.episode_start.repeat_interleave(N).unsqueeze(0),
-                                     mask.reshape(1, E * N, -1))
-            logits = out.logits[0]
-            actions = sample_actions(logits, self.action_generator)
-            log_probs, _ = log_prob_and_entropy(logits, actions)
+            obs, mask, actions, log_probs, next_hidden = self._choose(torch.from_numpy(step.obs).float(),
+                                                                      torch.from_numpy(step.action_mask))
             values = self.trainer.values(state)
 
             result = self.pool.step(actions.reshape(E, N).numpy())
@@ -252,12 +248,50 @@ class Runner:
                                rewards=rewards * c.reward_scale, episode_start=self.episode_start,
                                terminated=terminated, truncated=truncated, final_values=final_values,
                                actor_hidden=self.hidden)
-            self.hidden = out.hidden.reshape(E, N, -1)
+            self.hidden = next_hidden
             self.episode_start = terminated | truncated
             self.current = result
             self.env_steps += E
             finished.extend(result.finished)
         return finished
+
+    def _choose(self, env_obs: torch.Tensor, env_mask: torch.Tensor):
+        """Sample every robot's action: env_obs (E, N, D), env_mask (E, N, A) -> the actor inputs
+        and masks the actions were sampled under (what the buffer keeps), actions (E, N),
+        their log-probabilities (E, N) and the next GRU state (E, N, H)."""
+        E, N = env_obs.shape[:2]
+        trainer = self.trainer
+        if not trainer.sequential:
+            obs = trainer.actor_obs(env_obs)
+            out = trainer.actor(obs.reshape(1, E * N, -1), self.hidden.reshape(E * N, -1),
+                                self.episode_start.repeat_interleave(N).unsqueeze(0), env_mask.reshape(1, E * N, -1))
+            logits = out.logits[0]
+            actions = sample_actions(logits, self.action_generator)
+            log_probs, _ = log_prob_and_entropy(logits, actions)
+            return obs, env_mask, actions.reshape(E, N), log_probs.reshape(E, N), out.hidden.reshape(E, N, -1)
+        # Robots in index order, each seeing the tasks claimed before it (mappo/claims.py).
+        n_tasks = env_mask.shape[-1] - 1
+        identity = torch.eye(N)
+        obs = torch.zeros(E, N, trainer.actor_obs_dim)
+        mask = torch.zeros_like(env_mask)
+        actions = torch.zeros(E, N, dtype=torch.long)
+        log_probs = torch.zeros(E, N)
+        next_hidden = torch.zeros_like(self.hidden)
+        claimed = torch.zeros(E, n_tasks, dtype=torch.bool)
+        for robot in range(N):
+            obs_i = with_claims(env_obs[:, robot], claimed)
+            if self.config.append_agent_id:
+                obs_i = torch.cat([obs_i, identity[robot].expand(E, N)], dim=-1)
+            mask_i = self.claim_rules.mask(env_mask[:, robot], claimed)
+            out = trainer.actor(obs_i.unsqueeze(0), self.hidden[:, robot], self.episode_start.unsqueeze(0),
+                                mask_i.unsqueeze(0))
+            logits = out.logits[0]
+            action_i = sample_actions(logits, self.action_generator)
+            log_prob_i, _ = log_prob_and_entropy(logits, action_i)
+            obs[:, robot], mask[:, robot], actions[:, robot] = obs_i, mask_i, action_i
+            log_probs[:, robot], next_hidden[:, robot] = log_prob_i, out.hidden
+            claimed |= claimed_flags(action_i.unsqueeze(1), n_tasks)
+        return obs, mask, actions, log_probs, next_hidden
 
     @torch.no_grad()
     def compute(self) -> None:
@@ -288,7 +322,8 @@ class Runner:
 
     def greedy_policy(self) -> ActorPolicy:
         return ActorPolicy(self.trainer.actor, obs_dim=self.pool.obs_dim, n_agents=self.n_agents,
-                           append_agent_id=self.config.append_agent_id, settings=config_to_dict(self.config))
+                           append_agent_id=self.config.append_agent_id, settings=config_to_dict(self.config),
+                           predecessors=self.pool.predecessors)
 
     def evaluate(self) -> Dict[str, float]:
         """Greedy policy on fixed evaluation seeds (separate env, no training RNG used)."""
@@ -297,7 +332,7 @@ class Runner:
 
         def act(obs, mask, hidden):
             hidden = policy.initial_hidden(self.n_agents) if hidden is None else hidden
-            return policy.act(obs, mask, hidden, deterministic=True)
+            return policy.act_team(obs, mask, hidden, deterministic=True)
 
         if self.make_env is not None:
             records = evaluate_greedy(act, self.make_env, self.eval_seeds)

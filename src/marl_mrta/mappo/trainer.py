@@ -63,7 +63,9 @@ class MappoTrainer:
     def __init__(self, config: MappoConfig, obs_dim: int, state_dim: int, n_agents: int, n_actions: int):
         self.config = config
         self.n_agents = n_agents
-        self.actor_obs_dim = obs_dim + (n_agents if config.append_agent_id else 0)
+        self.sequential = config.decision_order != "simultaneous"
+        #: Environment observation, then the claimed-task flags (sequential), then the robot one-hot.
+        self.actor_obs_dim = obs_dim + (n_actions - 1 if self.sequential else 0) + (n_agents if config.append_agent_id else 0)
         self.actor = Actor(self.actor_obs_dim, n_actions, config.hidden_size)
         self.critic = Critic(state_dim, n_agents, config.hidden_size, config.critic_layers)
         self.value_norm = ValueNorm(enabled=config.value_norm)

@@ -36,6 +36,7 @@ class TrainingRewardEnv:
         self.n_tasks = n_tasks
         self.n_agents, self.n_actions = env.n_agents, env.n_actions
         self.obs_dim, self.state_dim = env.obs_dim, env.state_dim
+        self.scenario = env.scenario
 
     def reset(self, seed: Optional[int] = None) -> StepOutput:
         return self.env.reset(seed=seed)

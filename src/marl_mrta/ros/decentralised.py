@@ -15,13 +15,14 @@ import json
 import sys
 import threading
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Dict, List, Optional, Sequence
 
 import numpy as np
 
 from ..env.api import StepOutput
+from ..mappo.claims import ClaimRules
 
 #: Topics relative to each robot's namespace.
 OBSERVATION_TOPIC = "task_observation"
@@ -44,6 +45,7 @@ class ObservationRow:
     obs: np.ndarray           # (obs_dim,) float32
     action_mask: np.ndarray   # (n_actions,) uint8
     agent_index: int
+    claimed: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.uint8))  # (n_tasks,) sequential; else empty
 
 
 class ChoiceBoard:
@@ -70,15 +72,17 @@ class ChoiceBoard:
             self._cond.notify_all()
 
     def wait(self, timeout: float, poll: float = 1.0, on_poll: Callable[[], None] = lambda: None,
-             stop: Callable[[], bool] = lambda: False) -> List[int]:
-        """Every robot's action for the expected step; on_poll() every `poll` s while waiting
-        (re-sending observations); ActorTimeout naming the silent robots after `timeout` wall s."""
+             stop: Callable[[], bool] = lambda: False, robots: Optional[Sequence[int]] = None) -> List[Optional[int]]:
+        """The actions of `robots` (default every robot) for the expected step; on_poll() every
+        `poll` s while waiting (re-sending observations); ActorTimeout naming the silent robots
+        after `timeout` wall s. Robots not waited for may still be None."""
         deadline = time.monotonic() + timeout
+        waited = range(len(self.robot_names)) if robots is None else list(robots)
         with self._cond:
-            while None in self._choices:
+            while any(self._choices[i] is None for i in waited):
                 remaining = deadline - time.monotonic()
                 if remaining <= 0 or stop():
-                    missing = [n for n, c in zip(self.robot_names, self._choices) if c is None]
+                    missing = [self.robot_names[i] for i in waited if self._choices[i] is None]
                     why = "shutdown" if stop() else f"no {CHOICE_TOPIC} within {timeout:g} s"
                     raise ActorTimeout(f"{', '.join(missing)}: {why} for episode {self._key[0]} step "
                                        f"{self._key[1]} (is each robot's {ACTOR_NODE} running?)")
@@ -88,7 +92,7 @@ class ChoiceBoard:
                         on_poll()
                     finally:
                         self._cond.acquire()
-            return [int(c) for c in self._choices]
+            return [None if c is None else int(c) for c in self._choices]
 
 
 class DecentralisedPolicy:
@@ -98,8 +102,12 @@ class DecentralisedPolicy:
     name = "decentralised"
 
     def __init__(self, n_agents: int, send: Callable[[int, ObservationRow], None], board: ChoiceBoard,
-                 timeout: float, resend_period: float = 1.0, stop: Callable[[], bool] = lambda: False):
+                 timeout: float, resend_period: float = 1.0, stop: Callable[[], bool] = lambda: False,
+                 claim_rules: Optional[ClaimRules] = None):
+        """claim_rules: the actors decide one after another, each told the tasks claimed before
+        it (mappo/claims.py, the paper's assigned-task list); None: all at once."""
         self.n_agents = n_agents
+        self.claim_rules = claim_rules
         self.send = send
         self.board = board
         self.timeout = timeout
@@ -113,6 +121,8 @@ class DecentralisedPolicy:
         self.step = 0
 
     def act(self, output: StepOutput) -> List[int]:
+        if self.claim_rules is not None and self.claim_rules.sequential:
+            return self._act_in_turn(output)
         rows = [ObservationRow(episode=self.episode, step=self.step, episode_start=self.step == 0,
                                obs=np.asarray(output.obs[i], dtype=np.float32),
                                action_mask=np.asarray(output.action_mask[i], dtype=np.uint8),
@@ -126,6 +136,26 @@ class DecentralisedPolicy:
         send_all()
         # A lost message is re-sent; the actors answer a repeated step without re-deciding.
         actions = self.board.wait(self.timeout, self.resend_period, on_poll=send_all, stop=self.stop)
+        self.step += 1
+        return [int(a) for a in actions]
+
+    def _act_in_turn(self, output: StepOutput) -> List[int]:
+        """Robot i is asked once robots 0..i-1 have answered, with the tasks they claimed."""
+        import torch
+        from ..mappo.claims import claimed_flags
+        self.board.expect(self.episode, self.step)
+        actions: List[int] = []
+        for i in range(self.n_agents):
+            claimed = claimed_flags(torch.tensor([actions], dtype=torch.long), self.claim_rules.n_tasks)[0]
+            mask = self.claim_rules.mask(torch.as_tensor(np.asarray(output.action_mask[i], dtype=bool)), claimed)
+            row = ObservationRow(episode=self.episode, step=self.step, episode_start=self.step == 0,
+                                 obs=np.asarray(output.obs[i], dtype=np.float32),
+                                 action_mask=mask.numpy().astype(np.uint8), agent_index=i,
+                                 claimed=claimed.numpy().astype(np.uint8))
+            self.send(i, row)
+            answers = self.board.wait(self.timeout, self.resend_period, on_poll=lambda: self.send(i, row),
+                                      stop=self.stop, robots=[i])
+            actions.append(int(answers[i]))
         self.step += 1
         return actions
 
@@ -150,7 +180,7 @@ class RosActorLinks:
     def send(self, robot_index: int, row: ObservationRow) -> None:
         self.publishers[robot_index].publish(self._msg(
             episode=row.episode, step=row.step, episode_start=row.episode_start, obs=row.obs.tolist(),
-            action_mask=row.action_mask.tobytes(), agent_index=row.agent_index))
+            action_mask=row.action_mask.tobytes(), agent_index=row.agent_index, claimed=row.claimed.tobytes()))
 
     def wait_connected(self, timeout: float) -> None:
         """Until every robot's actor listens and answers on its topics (both directions)."""
@@ -189,15 +219,23 @@ def parse_execute_args(argv: Sequence[str]) -> argparse.Namespace:
     return args
 
 
-def check_actor_masks(namespaces: Sequence[str], env_mask: str) -> None:
-    """Each actor node states the action-mask mode its policy was trained with (~action_mask);
-    acting under another would feed it inputs it never saw."""
+def check_actor_masks(namespaces: Sequence[str], env_mask: str) -> str:
+    """Each actor node states the action-mask mode (~action_mask) and decision order
+    (~decision_order) its policy was trained with; acting under another mask would feed it
+    inputs it never saw. Returns the robots' common decision order."""
     import rospy
+    orders = set()
     for ns in namespaces:
-        trained = rospy.get_param("/" + ns.strip("/") + "/" + ACTOR_NODE + "/action_mask", None)
+        node = "/" + ns.strip("/") + "/" + ACTOR_NODE
+        trained = rospy.get_param(node + "/action_mask", None)
         if trained is not None and trained != env_mask:
-            raise ValueError(f"/{ns.strip('/')}/{ACTOR_NODE}/action_mask: the policy was trained with mask "
+            raise ValueError(f"{node}/action_mask: the policy was trained with mask "
                              f"{trained}, the task manager runs mask {env_mask} (set mask:={trained})")
+        orders.add(rospy.get_param(node + "/decision_order", "simultaneous"))
+    if len(orders) > 1:
+        raise ValueError(f"{ACTOR_NODE}/decision_order: the robots' policies disagree ({', '.join(sorted(orders))}); "
+                         f"give every robot the same policy")
+    return orders.pop() if orders else "simultaneous"
 
 
 def execute(args: argparse.Namespace, log: Callable[[str], None]) -> Dict:
@@ -219,7 +257,10 @@ def execute(args: argparse.Namespace, log: Callable[[str], None]) -> Dict:
     links = RosActorLinks(namespaces, board)
     log(f"rl_manager: waiting for the actors of {', '.join(namespaces)}")
     links.wait_connected(args.connect_timeout)
-    check_actor_masks(namespaces, env.settings.mask)
+    decision_order = check_actor_masks(namespaces, env.settings.mask)
+    claim_rules = ClaimRules(decision_order, env.scenario.predecessors)
+    if claim_rules.sequential:
+        log(f"rl_manager: decision order {decision_order}: robots answer in turn, each told the tasks claimed before it")
 
     exact_makespan = None
     if not args.no_exact:
@@ -228,7 +269,8 @@ def execute(args: argparse.Namespace, log: Callable[[str], None]) -> Dict:
         exact = exact_reference(instance, load_baseline_settings())
         exact_makespan = exact.makespan if exact.proven_optimal else None
 
-    policy = DecentralisedPolicy(env.n_agents, links.send, board, args.choice_timeout, stop=rospy.is_shutdown)
+    policy = DecentralisedPolicy(env.n_agents, links.send, board, args.choice_timeout, stop=rospy.is_shutdown,
+                                 claim_rules=claim_rules)
     started = time.monotonic()
     records = run_episodes(env, policy, args.episodes, args.seed, ProgressLine(f"decentralised on {env.scenario.name}"))
     seconds = time.monotonic() - started

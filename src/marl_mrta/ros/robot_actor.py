@@ -39,21 +39,35 @@ class RobotActor:
         self._last: Optional[Decision] = None
 
     def decide(self, episode: int, step: int, episode_start: bool, obs: Sequence[float],
-               action_mask: Sequence[int], agent_index: int) -> Decision:
+               action_mask: Sequence[int], agent_index: int, claimed: Sequence[int] = b"") -> Decision:
         """One decision. A repeated (episode, step), e.g. a re-sent observation, gets the same
-        answer without advancing the recurrent state; episode_start resets it first."""
+        answer without advancing the recurrent state; episode_start resets it first. claimed:
+        per task, 1 = taken earlier in this step (a sequential policy; empty = none)."""
         if self._last is not None and (self._last.episode, self._last.step) == (episode, step):
             return Decision(episode, step, self._last.action, repeated=True)
         if agent_index != self.agent_index:
             raise ObservationError(f"agent_index: observation for robot {agent_index}, this actor is robot "
                                    f"{self.agent_index}")
         obs_row, mask_row = self._rows(obs, action_mask)
+        claimed_row = self._claimed(claimed)
         if episode_start:
             self.hidden = self.policy.initial_hidden(1)
         actions, self.hidden = self.policy.act(obs_row, mask_row, self.hidden, deterministic=True,
-                                               agent_ids=[self.agent_index])
+                                               agent_ids=[self.agent_index], claimed=claimed_row)
         self._last = Decision(episode, step, int(actions[0]), repeated=False)
         return self._last
+
+    def _claimed(self, claimed: Sequence[int]) -> Optional[np.ndarray]:
+        flags = np.frombuffer(bytes(claimed), dtype=np.uint8) if isinstance(claimed, (bytes, bytearray)) \
+            else np.asarray(claimed, dtype=np.uint8)
+        if flags.size == 0:
+            return None
+        n_tasks = self.policy.n_actions - 1
+        if flags.size != n_tasks:
+            raise ObservationError(f"claimed: {flags.size} values, the scenario has {n_tasks} tasks")
+        if not self.policy.sequential:
+            raise ObservationError("claimed: given, but this policy decides simultaneously (decision_order)")
+        return flags.astype(bool).reshape(1, -1)
 
     def _rows(self, obs: Sequence[float], action_mask: Sequence[int]) -> Tuple[np.ndarray, Optional[np.ndarray]]:
         obs_row = np.asarray(obs, dtype=np.float32).reshape(1, -1)

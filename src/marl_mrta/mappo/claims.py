@@ -1,0 +1,66 @@
+"""Sequential decisions within a step: each robot sees the tasks already claimed (`decision_order`).
+
+With `decision_order: simultaneous` (the default) every robot chooses from its own observation
+at once, and two robots may pick the same task: the later one's trip is wasted, and under a
+team reward neither learns which of them should have yielded. With `sequential` the robots
+choose in index order and robot i also sees the tasks robots 0..i-1 chose in this step (the
+paper's assigned-task list, /Global_assigned_task): one flag per task appended to its
+observation, and those tasks are masked out, so a task is never given twice. None stays
+allowed. `sequential_logic` (with the `finished` action mask) also keeps a task closed until
+each of its predecessors is finished or claimed before this robot in the same step: the `logic`
+mask, widened by the claims, so a robot may head for B1 while another is doing A1 (the 4-robot
+optimum does exactly that; whether it arrives in order is still judged by the task rules).
+Execution stays decentralised: each robot's actor needs its own observation and the list of
+claimed tasks, nothing else.
+"""
+from __future__ import annotations
+
+from typing import Sequence
+
+import torch
+
+DECISION_ORDERS = ("simultaneous", "sequential", "sequential_logic")
+
+
+def claimed_flags(actions_so_far: torch.Tensor, n_tasks: int) -> torch.Tensor:
+    """actions (..., k) of the robots that already chose -> (..., n_tasks) bool, True = claimed.
+    The None action (index n_tasks) claims nothing."""
+    flags = torch.zeros(*actions_so_far.shape[:-1], n_tasks + 1, dtype=torch.bool)
+    if actions_so_far.shape[-1]:
+        flags.scatter_(-1, actions_so_far.long(), True)
+    return flags[..., :n_tasks]
+
+
+def with_claims(obs: torch.Tensor, claimed: torch.Tensor) -> torch.Tensor:
+    """One robot's observation (..., obs_dim) with the claimed flags (..., n_tasks) appended."""
+    return torch.cat([obs, claimed.to(obs.dtype)], dim=-1)
+
+
+def without_claimed(action_mask: torch.Tensor, claimed: torch.Tensor) -> torch.Tensor:
+    """Mask (..., n_tasks + 1) with the claimed tasks forbidden; None (last) is left as it was."""
+    free = torch.cat([~claimed, torch.ones_like(claimed[..., :1])], dim=-1)
+    return action_mask & free
+
+
+class ClaimRules:
+    """The actions open to a robot, given the environment's mask and the tasks claimed before it."""
+
+    def __init__(self, decision_order: str, predecessors: Sequence[Sequence[int]]):
+        self.sequential = decision_order != "simultaneous"
+        self.n_tasks = len(predecessors)
+        self.precedence = None
+        if decision_order == "sequential_logic":
+            self.precedence = torch.zeros(self.n_tasks, self.n_tasks, dtype=torch.bool)  # [task, predecessor]
+            for task, preds in enumerate(predecessors):
+                for pred in preds:
+                    self.precedence[task, int(pred)] = True
+
+    def mask(self, env_mask: torch.Tensor, claimed: torch.Tensor) -> torch.Tensor:
+        """env_mask (..., n_tasks + 1) under the `finished` mode (True = open), claimed
+        (..., n_tasks) -> the mask this robot chooses under. Applying it twice changes nothing."""
+        mask = without_claimed(env_mask, claimed)
+        if self.precedence is None:
+            return mask
+        pending = env_mask[..., :self.n_tasks] & ~claimed            # open and nobody on it yet
+        blocked = (self.precedence & pending.unsqueeze(-2)).any(-1)   # some predecessor pending
+        return mask & torch.cat([~blocked, torch.ones_like(blocked[..., :1])], dim=-1)

@@ -1,0 +1,164 @@
+"""Sequential decisions with claimed tasks (mappo/claims.py): the rules, training, the team
+actor and the per-robot actors (decentralised execution) agree."""
+import numpy as np
+import pytest
+import torch
+
+from marl_mrta.env.factory import make_env
+from marl_mrta.evaluation.runner import run_episodes
+from marl_mrta.mappo.claims import ClaimRules, claimed_flags, with_claims
+from marl_mrta.mappo.config import ConfigError, config_from_dict
+from marl_mrta.mappo.networks import Actor
+from marl_mrta.mappo.policy import ActorPolicy, load_policy
+from marl_mrta.mappo.runner import Runner
+from marl_mrta.ros.decentralised import ChoiceBoard, DecentralisedPolicy
+from marl_mrta.ros.robot_actor import ObservationError, RobotActor
+from marl_mrta.scenario import load_scenario
+from marl_mrta.tasks.config_reader import package_root
+
+LAB_4R = package_root() / "scenarios" / "lab_4r.xml"
+NONE = 8   # lab_4r: 8 tasks, the None action is index 8
+
+
+def task_index(scenario, task_id):
+    return [t.id for t in scenario.tasks].index(task_id)
+
+
+def test_claimed_flags_ignore_none_and_repeat():
+    flags = claimed_flags(torch.tensor([[2, NONE, 5], [NONE, NONE, NONE]]), 8)
+    assert flags.shape == (2, 8)
+    assert flags[0].nonzero().flatten().tolist() == [2, 5]
+    assert not flags[1].any()
+    assert claimed_flags(torch.zeros(3, 0, dtype=torch.long), 8).shape == (3, 8)
+    assert with_claims(torch.zeros(2, 5), flags).shape == (2, 13)
+
+
+def test_sequential_rules_forbid_claimed_tasks_only():
+    scenario = load_scenario(LAB_4R)
+    rules = ClaimRules("sequential", scenario.predecessors)
+    env_mask = torch.ones(NONE + 1, dtype=torch.bool)
+    env_mask[3] = False                                   # finished before
+    claimed = torch.zeros(8, dtype=torch.bool)
+    claimed[[0, 6]] = True
+    mask = rules.mask(env_mask, claimed)
+    assert mask.tolist() == [False, True, True, False, True, True, False, True, True]
+
+
+def test_sequential_logic_opens_a_successor_of_a_claimed_task():
+    scenario = load_scenario(LAB_4R)
+    a1, b1, b2 = (task_index(scenario, t) for t in ("A1", "B1", "B2"))
+    assert list(scenario.predecessors[b1]) == [a1]
+    rules = ClaimRules("sequential_logic", scenario.predecessors)
+    open_all = torch.ones(NONE + 1, dtype=torch.bool)        # `finished` mask at the episode start
+    nobody = torch.zeros(8, dtype=torch.bool)
+    first = rules.mask(open_all, nobody)
+    assert not first[b1] and first[a1] and first[NONE]
+    a1_claimed = nobody.clone()
+    a1_claimed[a1] = True
+    second = rules.mask(open_all, a1_claimed)
+    assert second[b1] and not second[a1] and not second[b2]
+    # idempotent: the orchestrator sends the narrowed mask and the actor applies the rules again
+    assert torch.equal(rules.mask(second, a1_claimed), second)
+    a1_finished = open_all.clone()
+    a1_finished[a1] = False
+    assert rules.mask(a1_finished, nobody)[b1]
+
+
+def test_sequential_logic_needs_the_finished_mask():
+    with pytest.raises(ConfigError, match="action_mask"):
+        config_from_dict({"decision_order": "sequential_logic", "action_mask": "logic"}, "preset.yaml")
+    with pytest.raises(ConfigError, match="decision_order"):
+        config_from_dict({"decision_order": "in_turn"}, "preset.yaml")
+
+
+def small_config(**extra):
+    values = {"n_envs": 4, "total_env_steps": 160, "batch_size": 80, "minibatch_size": 80, "chunk_length": 10,
+              "hidden_size": 16, "eval_every": 0, "eval_episodes": 2, "action_mask": "finished",
+              "decision_order": "sequential_logic", "learning_rate": 1e-3}
+    values.update(extra)
+    return config_from_dict(values)
+
+
+def test_training_never_gives_a_task_twice_in_a_step(tmp_path):
+    """Every joint action sampled while collecting names each task at most once, and B tasks
+    only after their A task is finished or claimed (would fail with simultaneous decisions,
+    which sample duplicates from an untrained actor)."""
+    scenario = load_scenario(LAB_4R)
+    runner = Runner(small_config(), lambda: make_env(LAB_4R, "embedded", mask="finished"), scenario="lab_4r",
+                    seed=0, out_dir=tmp_path, tensorboard=False, plots=False)
+    runner.start()
+    runner.collect()
+    actions = runner.buffer.actions.reshape(-1, 4).tolist()
+    assert len(actions) == 80
+    for joint in actions:
+        tasks = [a for a in joint if a != NONE]
+        assert len(tasks) == len(set(tasks)), joint
+    # the sampled B tasks at the first step of the first episodes come with their A task claimed
+    first = runner.buffer.actions[0].reshape(-1, 4).tolist()
+    for joint in first:
+        for robot, task in enumerate(joint):
+            for pred in scenario.predecessors[task] if task != NONE else []:
+                assert pred in joint[:robot], joint
+    # the actor input carries the claimed flags: its width is obs + 8 tasks + 4 robot ids
+    assert runner.buffer.obs.shape[-1] == runner.pool.obs_dim + 8 + 4
+
+
+def test_team_actor_and_per_robot_actors_decide_alike(tmp_path):
+    """act_team (evaluation) and the robots' own actors, asked in turn with the claimed tasks
+    (DecentralisedPolicy), give the same episodes; an actor file keeps the claim rules."""
+    config = small_config()
+    runner = Runner(config, lambda: make_env(LAB_4R, "embedded", mask="finished"), scenario="lab_4r", seed=1,
+                    out_dir=tmp_path, tensorboard=False, plots=False)
+    runner.start()
+    runner.train_one_update()
+    runner.save_checkpoint()
+    policy = load_policy(tmp_path / "actor.pt")
+    assert policy.sequential and policy.decision_order == "sequential_logic"
+    scenario = load_scenario(LAB_4R)
+
+    class Team:
+        name = "team"
+
+        def begin_episode(self, first, episode=None):
+            self.hidden = policy.initial_hidden(4)
+
+        def act(self, output):
+            actions, self.hidden = policy.act_team(output.obs, output.action_mask, self.hidden)
+            return [int(a) for a in actions]
+
+    central = run_episodes(make_env(LAB_4R, "embedded", mask="finished"), Team(), episodes=3, seed=7)
+    board = ChoiceBoard([r.id for r in scenario.robots])
+    actors = [RobotActor(policy, i) for i in range(4)]
+    asked = []
+
+    def send(i, row):
+        asked.append((i, row.claimed.tolist()))
+        decision = actors[i].decide(row.episode, row.step, row.episode_start, row.obs, row.action_mask.tobytes(),
+                                    row.agent_index, row.claimed.tobytes())
+        board.offer(i, decision.episode, decision.step, decision.action)
+
+    decentral = run_episodes(make_env(LAB_4R, "embedded", mask="finished"),
+                             DecentralisedPolicy(4, send, board, timeout=5.0,
+                                                 claim_rules=ClaimRules(policy.decision_order, scenario.predecessors)),
+                             episodes=3, seed=7)
+    assert [r.robot_task_lists() for r in decentral] == [r.robot_task_lists() for r in central]
+    assert [r.makespan for r in decentral] == [r.makespan for r in central]
+    assert [i for i, _ in asked[:4]] == [0, 1, 2, 3]        # in turn
+    assert sum(asked[0][1]) == 0 and sum(asked[3][1]) >= 1  # the last robot hears of earlier claims
+    for record in central:
+        for joint in record.joint_actions:
+            tasks = [t for t in joint if t is not None]
+            assert len(tasks) == len(set(tasks))
+
+
+def test_claims_sent_to_a_simultaneous_actor_are_refused():
+    env = make_env(LAB_4R, "embedded", mask="finished")
+    torch.manual_seed(0)
+    policy = ActorPolicy(Actor(env.obs_dim + 4, env.n_actions, 8), obs_dim=env.obs_dim, n_agents=4,
+                         append_agent_id=True, settings={"action_mask": "finished"})
+    first = env.reset(seed=0)
+    actor = RobotActor(policy, 0)
+    with pytest.raises(ObservationError, match="claimed"):
+        actor.decide(0, 0, True, first.obs[0], first.action_mask[0].astype(np.uint8).tobytes(), 0, bytes(8))
+    with pytest.raises(ObservationError, match="claimed"):
+        actor.decide(0, 0, True, first.obs[0], first.action_mask[0].astype(np.uint8).tobytes(), 0, bytes(3))
