@@ -1,13 +1,22 @@
 // fake_localization drop-in: map -> <odom_frame> from the simulator's ground truth, so that
 // map -> base equals the true pose (map -> odom = ground truth · odometry⁻¹, paired by stamp).
 // Also publishes amcl_pose and a one-pose particlecloud, and accepts initialpose (offset).
+// Opt-in ~static_transform (default false, as stock): map -> odom goes to /tf_static, and only
+// when it moved by more than a micrometre / microradian: with drift-free odometry it changes only
+// at a reset, teleport or initialpose, and every tf listener of the graph would otherwise
+// deserialise one /tf message per robot per odometry tick. A latched static for the same child
+// frame replaces the old one. Not for drifting odometry: lookups at a past stamp then need the
+// transform of that stamp, which only /tf keeps.
 #include <geometry_msgs/PoseArray.h>
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
+#include <tf2_ros/static_transform_broadcaster.h>
 #include <tf2_ros/transform_broadcaster.h>
 
+#include <cmath>
 #include <deque>
+#include <memory>
 
 #include "marl_mrta/nav/local_controller.h"
 #include "ros_conversions.h"
@@ -29,6 +38,14 @@ Transform2D inverse(const Transform2D& t) {
   return {-(c * t.x + s * t.y), -(-s * t.x + c * t.y), -t.yaw};
 }
 
+// Below these, a change of map -> odom is floating-point rounding of ground truth vs odometry.
+constexpr double kStaticTolerance = 1e-6;  // [m] and [rad]
+bool sameTransform(const Transform2D& a, const Transform2D& b) {
+  const double yaw_change = std::remainder(a.yaw - b.yaw, 2.0 * M_PI);
+  return std::abs(a.x - b.x) <= kStaticTolerance && std::abs(a.y - b.y) <= kStaticTolerance &&
+         std::abs(yaw_change) <= kStaticTolerance;
+}
+
 class FakeLocalization {
  public:
   FakeLocalization(ros::NodeHandle& nh, ros::NodeHandle& pnh) {
@@ -36,6 +53,11 @@ class FakeLocalization {
     global_frame_ = pnh.param<std::string>("global_frame_id", "map");
     transform_tolerance_ = pnh.param("transform_tolerance", 0.1);
     offset_ = {pnh.param("delta_x", 0.0), pnh.param("delta_y", 0.0), pnh.param("delta_yaw", 0.0)};
+    if (pnh.param("static_transform", false)) {
+      static_broadcaster_ = std::make_unique<tf2_ros::StaticTransformBroadcaster>();
+    } else {
+      broadcaster_ = std::make_unique<tf2_ros::TransformBroadcaster>();
+    }
     pose_pub_ = nh.advertise<geometry_msgs::PoseWithCovarianceStamped>("amcl_pose", 1);
     cloud_pub_ = nh.advertise<geometry_msgs::PoseArray>("particlecloud", 1);
     // No Nagle delay: in lock-step, move_base waits for the transform made from these.
@@ -76,14 +98,22 @@ class FakeLocalization {
   void publish(const nav_msgs::Odometry& truth, const nav_msgs::Odometry& odom) {
     const Transform2D map_base = compose(offset_, asTransform(conv::toPose2D(truth.pose.pose)));
     const Transform2D map_odom = compose(map_base, inverse(asTransform(conv::toPose2D(odom.pose.pose))));
-    geometry_msgs::TransformStamped tf;
-    tf.header.stamp = truth.header.stamp + ros::Duration(transform_tolerance_);
-    tf.header.frame_id = global_frame_;
-    tf.child_frame_id = odom_frame_;
-    tf.transform.translation.x = map_odom.x;
-    tf.transform.translation.y = map_odom.y;
-    tf.transform.rotation = conv::quaternionFromYaw(map_odom.yaw);
-    broadcaster_.sendTransform(tf);
+    if (!static_broadcaster_ || !static_sent_ || !sameTransform(map_odom, static_map_odom_)) {
+      geometry_msgs::TransformStamped tf;
+      tf.header.stamp = truth.header.stamp + ros::Duration(transform_tolerance_);
+      tf.header.frame_id = global_frame_;
+      tf.child_frame_id = odom_frame_;
+      tf.transform.translation.x = map_odom.x;
+      tf.transform.translation.y = map_odom.y;
+      tf.transform.rotation = conv::quaternionFromYaw(map_odom.yaw);
+      if (static_broadcaster_) {
+        static_broadcaster_->sendTransform(tf);
+        static_map_odom_ = map_odom;
+        static_sent_ = true;
+      } else {
+        broadcaster_->sendTransform(tf);
+      }
+    }
     geometry_msgs::PoseWithCovarianceStamped pose;
     pose.header.stamp = truth.header.stamp;
     pose.header.frame_id = global_frame_;
@@ -104,7 +134,11 @@ class FakeLocalization {
   Transform2D offset_;
   ros::Publisher pose_pub_, cloud_pub_;
   ros::Subscriber truth_sub_, odom_sub_, initial_sub_;
-  tf2_ros::TransformBroadcaster broadcaster_;
+  // Exactly one of the two, after ~static_transform.
+  std::unique_ptr<tf2_ros::TransformBroadcaster> broadcaster_;
+  std::unique_ptr<tf2_ros::StaticTransformBroadcaster> static_broadcaster_;
+  Transform2D static_map_odom_;  // the last map -> odom sent on /tf_static
+  bool static_sent_ = false;
   std::deque<nav_msgs::Odometry::ConstPtr> odoms_, truths_;
   nav_msgs::Odometry::ConstPtr last_truth_;
 };
