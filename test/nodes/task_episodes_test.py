@@ -171,8 +171,14 @@ class TaskEpisodesTest(unittest.TestCase):
         out = env.reset(seed=6)
         self.assertEqual(out.info["step"], 0)
         self.assertFalse(any(out.info["finished"]))
-        self.wait_for(lambda: all(self.truth[ns].header.stamp.to_sec() > stamp for ns in self.robots), 10.0,
-                      "ground truth after the reset")
+        # A ground truth stamped after `stamp` may still be one published before the reset took
+        # effect (the clock runs on between the step and the reset): wait for the start poses.
+        def at_start(ns, robot):
+            position = self.truth[ns].pose.pose.position
+            return (self.truth[ns].header.stamp.to_sec() > stamp
+                    and math.hypot(position.x - robot.start.x, position.y - robot.start.y) < 1e-3)
+        self.wait_for(lambda: all(at_start(ns, r) for ns, r in zip(self.robots, self.scenario.robots)), 10.0,
+                      "ground truth at the start poses after the reset")
         for ns, robot in zip(self.robots, self.scenario.robots):
             pose = self.truth[ns].pose.pose
             self.assertAlmostEqual(pose.position.x, robot.start.x, delta=1e-3, msg=ns)
