@@ -22,6 +22,16 @@ import torch
 DECISION_ORDERS = ("simultaneous", "sequential", "sequential_logic")
 
 
+def is_sequential(decision_order: str) -> bool:
+    return decision_order != "simultaneous"
+
+
+def actor_input_size(obs_dim: int, n_actions: int, n_agents: int, append_agent_id: bool, decision_order: str) -> int:
+    """Width of the actor's input: the environment observation, the claimed-task flags
+    (sequential orders), then the one-hot robot index (append_agent_id)."""
+    return obs_dim + (n_actions - 1 if is_sequential(decision_order) else 0) + (n_agents if append_agent_id else 0)
+
+
 def claimed_flags(actions_so_far: torch.Tensor, n_tasks: int) -> torch.Tensor:
     """actions (..., k) of the robots that already chose -> (..., n_tasks) bool, True = claimed.
     The None action (index n_tasks) claims nothing."""
@@ -46,7 +56,7 @@ class ClaimRules:
     """The actions open to a robot, given the environment's mask and the tasks claimed before it."""
 
     def __init__(self, decision_order: str, predecessors: Sequence[Sequence[int]]):
-        self.sequential = decision_order != "simultaneous"
+        self.sequential = is_sequential(decision_order)
         self.n_tasks = len(predecessors)
         self.precedence = None
         if decision_order == "sequential_logic":

@@ -13,7 +13,7 @@ from typing import Any, Dict, Optional, Sequence, Tuple, Union
 import numpy as np
 import torch
 
-from .claims import ClaimRules, claimed_flags, with_claims
+from .claims import ClaimRules, actor_input_size, claimed_flags, is_sequential, with_claims
 from .networks import Actor, masked_logits, sample_actions
 
 ACTOR_FORMAT = "marl_mrta.mappo.actor/1"
@@ -65,7 +65,7 @@ class ActorPolicy:
         self.action_mask: str = self.settings.get("action_mask", "none")
         #: Sequential: robots decide in index order, each seeing the tasks claimed before it (mappo/claims.py).
         self.decision_order: str = self.settings.get("decision_order", "simultaneous")
-        self.sequential: bool = self.decision_order != "simultaneous"
+        self.sequential: bool = is_sequential(self.decision_order)
         #: Per task, its predecessors (the scenario the actor was trained on).
         self.predecessors = [list(p) for p in predecessors] if predecessors is not None \
             else [[] for _ in range(actor.n_actions - 1)]
@@ -153,9 +153,9 @@ def load_policy(path: Union[str, Path], seed: int = 0) -> ActorPolicy:
         data = data["actor_file"]
     if not isinstance(data, dict) or data.get("format") != ACTOR_FORMAT:
         raise PolicyFileError(f"{path}: format: not a {ACTOR_FORMAT} actor file")
-    sequential = dict(data.get("settings", {})).get("decision_order", "simultaneous") != "simultaneous"
-    actor = Actor(data["obs_dim"] + (data["n_actions"] - 1 if sequential else 0)
-                  + (data["n_agents"] if data["append_agent_id"] else 0), data["n_actions"], data["hidden_size"])
+    decision_order = dict(data.get("settings", {})).get("decision_order", "simultaneous")
+    actor = Actor(actor_input_size(data["obs_dim"], data["n_actions"], data["n_agents"], data["append_agent_id"],
+                                   decision_order), data["n_actions"], data["hidden_size"])
     try:
         actor.load_state_dict(data["weights"])
     except RuntimeError:

@@ -14,6 +14,7 @@ import torch
 from torch import nn
 
 from .buffer import Minibatch, RolloutBuffer
+from .claims import actor_input_size, is_sequential
 from .config import MappoConfig
 from .networks import Actor, Critic, actor_input, log_prob_and_entropy
 from .value_norm import ValueNorm
@@ -63,9 +64,9 @@ class MappoTrainer:
     def __init__(self, config: MappoConfig, obs_dim: int, state_dim: int, n_agents: int, n_actions: int):
         self.config = config
         self.n_agents = n_agents
-        self.sequential = config.decision_order != "simultaneous"
-        #: Environment observation, then the claimed-task flags (sequential), then the robot one-hot.
-        self.actor_obs_dim = obs_dim + (n_actions - 1 if self.sequential else 0) + (n_agents if config.append_agent_id else 0)
+        self.sequential = is_sequential(config.decision_order)
+        self.actor_obs_dim = actor_input_size(obs_dim, n_actions, n_agents, config.append_agent_id,
+                                              config.decision_order)
         self.actor = Actor(self.actor_obs_dim, n_actions, config.hidden_size)
         self.critic = Critic(state_dim, n_agents, config.hidden_size, config.critic_layers)
         self.value_norm = ValueNorm(enabled=config.value_norm)
