@@ -46,6 +46,7 @@ void MoveBaseRos::processTicks() {
       last_tick_time_ = tick.stamp;
       if (control) {
         last_control_period_ = period_index;
+        waitForClock(tick.stamp);
         controlStep(tick.stamp, tick.stamp);
       }
       last_acked_tick_ = static_cast<int64_t>(tick.tick);
@@ -58,6 +59,15 @@ void MoveBaseRos::processTicks() {
     ack_pub_.publish(ack_);
     pending_ticks_.pop_front();
   }
+}
+
+void MoveBaseRos::waitForClock(const ros::Time& stamp) const {
+  // actionlib stamps results and status with ros::Time::now(), which follows /clock on roscpp's
+  // own thread and may still be a tick or two behind under load. The simulator sends the clock
+  // before the tick, so this wait is short; after it a result carries the tick it happened at.
+  if (!ros::Time::isSimTime()) return;
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(tf_wait_);
+  while (ros::Time::now() < stamp && ros::WallTime::now() < deadline && ros::ok()) ros::WallDuration(0.0001).sleep();
 }
 
 bool MoveBaseRos::lookupPose(const std::string& target, const std::string& source, const ros::Time& time,

@@ -67,6 +67,7 @@ class MoveBaseRos {
   bool lookupPose(const std::string& target, const std::string& source, const ros::Time& time, Pose2D& pose,
                   std::string& error);
   void insertScans(const ros::Time& lookup_limit);
+  void waitForClock(const ros::Time& stamp) const;
   void publishCommand(const Velocity2D& command);
   void publishOutputs(const CycleOutput& out, const Pose2D& pose, const ros::Time& stamp);
   void publishCostmaps(double now, const ros::Time& stamp);
