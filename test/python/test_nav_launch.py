@@ -74,6 +74,15 @@ def test_builtin_and_stock_get_the_same_parameters():
     assert any(k.startswith("/tb3_1/move_base/DWAPlannerROS/") for k in builtin)
 
 
+def test_fake_static_localization_sets_the_static_transform_option():
+    nodes, params = load("launch/nav.launch", "robots:=2", "nav:=builtin", "localization:=fake_static")
+    assert nodes["/tb3_1/fake_localization"].package == "marl_mrta"
+    assert params["/tb3_0/fake_localization/static_transform"] is True
+    assert params["/tb3_1/fake_localization/static_transform"] is True
+    _, default = load("launch/nav.launch", "robots:=2", "nav:=builtin")
+    assert "/tb3_0/fake_localization/static_transform" not in default  # stock behaviour: /tf
+
+
 def test_nav_launch_stock_runs_one_map_server_for_all_robots():
     nodes, _ = load("launch/nav.launch", "robots:=3", "nav:=stock")
     assert nodes["/map_server"].package == "map_server"
