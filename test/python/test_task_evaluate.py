@@ -65,3 +65,22 @@ def test_bad_input_is_one_line_and_exit_2(argv, message, tmp_path, capsys):
     assert code == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err == [err[0]] and err[0].startswith(message)
+
+
+def test_out_may_name_a_directory(tmp_path):
+    code = main(["--method", "exact", "--scenario", LAB_2R, "--episodes", "1", "--out", str(tmp_path), "--quiet"])
+    assert code == 0
+    written = tmp_path / "evaluate_lab_2r_exact.json"
+    assert json.loads(written.read_text())["results"][0]["summary"]["method"] == "exact"
+    assert (tmp_path / "evaluate_lab_2r_exact_exact_gantt.png").exists()
+
+
+def test_unwritable_out_is_one_line_before_any_episode(tmp_path, capsys):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("kept")
+    code = main(["--method", "random", "--scenario", LAB_2R, "--episodes", "1", "--no-exact",
+                 "--out", str(blocker / "x.json"), "--quiet"])
+    assert code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [err[0]] and err[0].startswith(f"evaluate: --out {blocker / 'x.json'}: cannot make the directory")
+    assert blocker.read_text() == "kept"

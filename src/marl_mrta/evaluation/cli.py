@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import sys
 import time
 from pathlib import Path
@@ -58,7 +59,8 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> argparse.Namespace:
     parser.add_argument("--policy", default=None, help="actor file for --method policy")
     parser.add_argument("--seed", type=int, default=0, help="seed of episodes and planners (default 0)")
     parser.add_argument("--out", default=None,
-                        help="JSON output file (default results/evaluate_<scenario>_<methods>.json)")
+                        help="JSON output file, or a directory for the default name "
+                             "(default results/evaluate_<scenario>_<methods>.json)")
     parser.add_argument("--no-exact", action="store_true", help="skip the exact reference (no ratio column)")
     parser.add_argument("--quiet", action="store_true", help="no progress line")
     # roslaunch appends remappings (__name:=..., __log:=...) to a node's command line.
@@ -113,6 +115,26 @@ def plan_json(plan: Plan, task_ids: Sequence[str]) -> Dict[str, Any]:
             "details": plan.details}
 
 
+def output_path(args: argparse.Namespace, scenario_name: str) -> Path:
+    """--out as a file, or a directory that receives the default name; checked (and its
+    directory made) before any episode runs, so a bad path costs nothing."""
+    executor = "" if args.executor == "embedded" else f"{args.executor}_"
+    name = f"evaluate_{executor}{scenario_name}_{'_'.join(args.methods)}.json"
+    if not args.out:
+        out = package_root() / "results" / name
+    else:
+        out = Path(args.out)
+        if out.is_dir() or args.out.endswith(("/", os.sep)):
+            out = out / name
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise UsageError(f"--out {args.out}: cannot make the directory {out.parent}: {error.strerror}") from None
+    if not os.access(out.parent, os.W_OK) or (out.exists() and not os.access(out, os.W_OK)):
+        raise UsageError(f"--out {args.out}: {out} is not writable")
+    return out
+
+
 def evaluate(args: argparse.Namespace) -> int:
     if args.executor == "ros":
         env = make_ros_env(args)
@@ -134,10 +156,7 @@ def evaluate(args: argparse.Namespace) -> int:
               f"{exact_plan.details.get('expansions')} expansions, {time.monotonic() - started:.2f} s", file=sys.stderr)
     exact_makespan = exact_plan.makespan if exact_plan is not None and exact_plan.proven_optimal else None
 
-    executor = "" if args.executor == "embedded" else f"{args.executor}_"
-    out = Path(args.out) if args.out else (package_root() / "results"
-                                           / f"evaluate_{executor}{scenario.name}_{'_'.join(args.methods)}.json")
-    out.parent.mkdir(parents=True, exist_ok=True)
+    out = output_path(args, scenario.name)
     summaries, results = [], []
     for method in args.methods:
         plan = None
