@@ -6,6 +6,7 @@
   /Global_reached_task, /idle_time and /task_markers carry what the episode record says;
 - random: the random baseline runs an episode to its end (all tasks or the timeout) through
   RosTaskEnvClient, never aborted, every finished task reported once;
+- repeat: the graph's first exact episode and the next one end on the same tick;
 - reset: after robots have driven, ~reset puts them back on the scenario's start poses.
 Waiting is bounded in wall time; nothing here asserts speed.
 """
@@ -83,6 +84,18 @@ class TaskEpisodesTest(unittest.TestCase):
         while not predicate():
             self.assertLess(time.monotonic(), deadline, "timed out waiting for " + what)
             rospy.rostime.wallsleep(0.05)
+
+    def test_exact_episodes_repeat_to_the_tick(self):
+        # Runs first (name order): the graph's first episode, started from launch, must equal the
+        # next one, started from a reset after driving (lock-step: no dependence on history or load).
+        out = os.path.join(tempfile.mkdtemp(), "exact_twice.json")
+        code = evaluate_main(["--executor", "ros", "--method", "exact", "--episodes", "2", "--out", out, "--quiet"])
+        self.assertEqual(code, 0)
+        with open(out) as f:
+            episodes = json.load(f)["results"][0]["episodes"]
+        self.assertEqual([e["complete"] for e in episodes], [True, True])
+        self.assertAlmostEqual(episodes[0]["makespan"], episodes[1]["makespan"], places=6,
+                               msg="makespans of the first and second exact episode: %s" % [e["makespan"] for e in episodes])
 
     def test_exact_schedule_completes_and_topics_match_the_record(self):
         self.recorder.clear()
