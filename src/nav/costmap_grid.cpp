@@ -19,7 +19,7 @@ void CostGrid::resize(unsigned size_x, unsigned size_y, double resolution, doubl
   resolution_ = resolution;
   origin_x_ = anchor_x_ = origin_x;
   origin_y_ = anchor_y_ = origin_y;
-  shift_x_ = shift_y_ = 0;
+  cells_moved_x_ = cells_moved_y_ = 0;
   cells_.assign(static_cast<size_t>(size_x) * size_y, default_value_);
 }
 
@@ -73,10 +73,10 @@ void CostGrid::updateOrigin(double new_origin_x, double new_origin_y) {
     }
   }
   cells_.swap(shifted);
-  shift_x_ += shift_x;
-  shift_y_ += shift_y;
-  origin_x_ = anchor_x_ + static_cast<double>(shift_x_) * resolution_;
-  origin_y_ = anchor_y_ + static_cast<double>(shift_y_) * resolution_;
+  cells_moved_x_ += shift_x;
+  cells_moved_y_ += shift_y;
+  origin_x_ = anchor_x_ + static_cast<double>(cells_moved_x_) * resolution_;
+  origin_y_ = anchor_y_ + static_cast<double>(cells_moved_y_) * resolution_;
 }
 
 std::vector<unsigned> CostGrid::polygonOutlineCells(const std::vector<double>& xs,

@@ -90,10 +90,10 @@ class CostGrid {
   unsigned size_x_ = 0, size_y_ = 0;
   double resolution_ = 0.05;
   double origin_x_ = 0.0, origin_y_ = 0.0;
-  // The origin given to resize() and the whole cells moved since: origin = anchor + shift * res,
+  // The origin given to resize() and the whole cells moved since: origin = anchor + cells moved * res,
   // never a running sum, so the same shift gives the same origin whatever the path to it.
   double anchor_x_ = 0.0, anchor_y_ = 0.0;
-  long shift_x_ = 0, shift_y_ = 0;
+  long cells_moved_x_ = 0, cells_moved_y_ = 0;
   uint8_t default_value_ = kFreeSpace;
   std::vector<uint8_t> cells_;
 };

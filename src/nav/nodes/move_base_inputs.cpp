@@ -61,22 +61,29 @@ void MoveBaseRos::processTicks() {
   }
 }
 
+bool MoveBaseRos::pollUntil(const std::function<bool()>& done) const {
+  // Inputs of a tick arrive on other connections and threads: short sleeps, bounded in wall time.
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(tf_wait_);
+  while (!done()) {
+    if (ros::WallTime::now() > deadline || !ros::ok()) return false;
+    ros::WallDuration(0.0001).sleep();
+  }
+  return true;
+}
+
 void MoveBaseRos::waitForClock(const ros::Time& stamp) const {
   // actionlib stamps results and status with ros::Time::now(), which follows /clock on roscpp's
   // own thread and may still be a tick or two behind under load. The simulator sends the clock
   // before the tick, so this wait is short; after it a result carries the tick it happened at.
-  if (!ros::Time::isSimTime()) return;
-  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(tf_wait_);
-  while (ros::Time::now() < stamp && ros::WallTime::now() < deadline && ros::ok()) ros::WallDuration(0.0001).sleep();
+  if (ros::Time::isSimTime()) pollUntil([&] { return ros::Time::now() >= stamp; });
 }
 
 bool MoveBaseRos::lookupPose(const std::string& target, const std::string& source, const ros::Time& time,
                              Pose2D& pose, std::string& error) {
-  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(tf_wait_);
-  while (!tf_buffer_.canTransform(target, source, time, &error)) {
-    if (time.isZero() || ros::WallTime::now() > deadline || !ros::ok()) return false;
-    ros::WallDuration(0.0002).sleep();
-  }
+  // The latest transform (time 0) is there or not: no waiting for it.
+  const bool available = time.isZero() ? tf_buffer_.canTransform(target, source, time, &error)
+                                       : pollUntil([&] { return tf_buffer_.canTransform(target, source, time, &error); });
+  if (!available) return false;
   pose = conv::toPose2D(tf_buffer_.lookupTransform(target, source, time));
   return true;
 }

@@ -17,6 +17,7 @@
 #include <tf2_ros/transform_listener.h>
 
 #include <deque>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -67,6 +68,7 @@ class MoveBaseRos {
   bool lookupPose(const std::string& target, const std::string& source, const ros::Time& time, Pose2D& pose,
                   std::string& error);
   void insertScans(const ros::Time& lookup_limit);
+  bool pollUntil(const std::function<bool()>& done) const;
   void waitForClock(const ros::Time& stamp) const;
   void publishCommand(const Velocity2D& command);
   void publishOutputs(const CycleOutput& out, const Pose2D& pose, const ros::Time& stamp);
