@@ -72,6 +72,7 @@ class ExecDecentralisedTest(unittest.TestCase):
             result = json.load(handle)
         summary = result["summary"]
         self.assertEqual(result["execution"], "decentralised")
+        self.assertEqual(result["profile"], "ideal")
         self.assertEqual(summary["episodes"], 1)
         self.assertEqual(summary["complete_pct"], 100.0, tail)
         episode = result["representative_episode"]

@@ -105,6 +105,7 @@ class TaskEpisodesTest(unittest.TestCase):
         with open(out) as f:
             data = json.load(f)
         self.assertEqual(data["executor"], "ros")
+        self.assertEqual(data["profile"], "ideal")   # the simulator's, which the episode ran under
         summary = data["results"][0]["summary"]
         self.assertEqual(summary["complete_pct"], 100.0)
         self.assertEqual(summary["logic_consistent_pct"], 100.0)

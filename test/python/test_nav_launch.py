@@ -13,7 +13,8 @@ roslaunch = pytest.importorskip("roslaunch")
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 TB3_PARAMS = os.path.join(REPO, "..", "shared", "external", "turtlebot3_noetic", "turtlebot3_navigation", "param")
-LAUNCH_FILES = ["launch/include/robot_nav.launch", "launch/nav.launch", "launch/nav_robots.launch"]
+LAUNCH_FILES = ["launch/include/robot_nav.launch", "launch/nav.launch", "launch/nav_robots.launch",
+                "launch/evaluate.launch", "launch/execute.launch"]
 
 
 @pytest.fixture(autouse=True)
@@ -92,6 +93,21 @@ def test_nav_launch_stock_runs_one_map_server_for_all_robots():
     assert all(nodes["/tb3_%d/move_base" % i].package == "move_base" for i in range(3))
     nodes, _ = load("launch/nav.launch", "robots:=2", "arenas:=2", "nav:=builtin")
     assert "/arena_1/tb3_1/move_base" in nodes
+
+
+@pytest.mark.parametrize("launch_args", [["launch/evaluate.launch", "method:=exact"],
+                                         ["launch/evaluate.launch", "method:=policy", "policy:=/tmp/actor.pt"],
+                                         ["launch/execute.launch", "policy:=/tmp/actor.pt"]])
+def test_evaluation_launch_files_pass_navigation_lockstep_and_noise_on(launch_args):
+    nodes, params = load(*launch_args)
+    assert nodes["/tb3_0/move_base"].package == "marl_mrta"      # defaults: built-in, lock-step, ideal
+    assert params["/simulator/lockstep"] is True
+    assert params["/simulator/noise_profile"] == "ideal"
+    nodes, params = load(*launch_args, "nav:=stock", "lockstep:=false", "noise_profile:=measured_tb3")
+    assert nodes["/tb3_0/move_base"].package == "move_base"
+    assert nodes["/tb3_1/fake_localization"].package == "fake_localization"
+    assert params["/simulator/lockstep"] is False
+    assert params["/simulator/noise_profile"] == "measured_tb3"
 
 
 def test_nav_auto_picks_builtin_without_move_base(monkeypatch):

@@ -187,7 +187,9 @@ def evaluate(args: argparse.Namespace) -> int:
     print(format_table(summaries))
     document = {
         "scenario": str(scenario.source), "scenario_name": scenario.name, "executor": args.executor,
-        "profile": args.profile or "default", "mask": env.settings.mask, "episodes": args.episodes,
+        # ros: the simulator's noise profile, which the episodes ran under
+        "profile": env.noise_profile if args.executor == "ros" else args.profile or "default",
+        "mask": env.settings.mask, "episodes": args.episodes,
         "seed": args.seed,
         "exact": plan_json(exact_plan, task_ids) if exact_plan is not None else None,
         "results": results,

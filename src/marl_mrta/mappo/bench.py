@@ -74,13 +74,14 @@ def train(config: MappoConfig, scenario: str, seed: int, out: Path, target: floa
         "final_greedy_makespan_s": round(summary.greedy_makespan, 3),
         "best_greedy_makespan_s": round(min(e["makespan"] for e in evaluations), 3) if evaluations else None,
         "actor": str(runner.actor_path),
+        "greedy_allocation": learned_allocation(str(runner.actor_path), make_env, 1, 0)["robot_tasks"],
     }
     log(f"  seed {seed}: time to policy {result['time_to_policy_s']} s ({result['steps_to_policy']} steps), "
         f"final greedy {result['final_greedy_makespan_s']} s, {result['train_steps_per_s']} steps/s")
     return result
 
 
-def learned_allocation(actor_path: str, make_env, task_ids: List[str], episodes: int, seed: int) -> Dict[str, Any]:
+def learned_allocation(actor_path: str, make_env, episodes: int, seed: int) -> Dict[str, Any]:
     from .policy import load_policy
     policy = load_policy(actor_path)
 
@@ -111,6 +112,8 @@ def main(argv: Optional[List[str]] = None) -> int:
                         help="--ros: wall minutes each ros-backend training may take at most (default 30)")
     parser.add_argument("--ros-modes", default="pretrained,scratch",
                         help="--ros: pretrained (embedded training, then ROS) and/or scratch (ROS only)")
+    parser.add_argument("--pretrain-seeds", type=int, default=4,
+                        help="--ros pretrained: embedded-trained candidates (seeds 0..N-1) checked in ROS in turn (default 4)")
     parser.add_argument("--ros-port", type=int, default=11599, help="--ros: port of the benchmark's own ROS master")
     parser.add_argument("--preset", default="tuned",
                         help="settings of the time-to-policy runs: tuned | sequential | paper | a YAML (default tuned)")
@@ -156,9 +159,9 @@ def main(argv: Optional[List[str]] = None) -> int:
         comparison[name]["ratio_to_exact"] = round(comparison[name]["final_greedy_makespan_s"] / plan.makespan, 4)
         log(f"  {name}: greedy / exact = {comparison[name]['ratio_to_exact']}")
 
-    allocation = learned_allocation(comparison["tuned"]["actor"], make_env, instance.task_ids, 5, 1)
+    allocation = learned_allocation(comparison["tuned"]["actor"], make_env, 5, 1)
     noisy_env = env_factory(args.scenario, replace(tuned, noise_profile="measured_tb3"))
-    noisy = learned_allocation(comparison["tuned"]["actor"], noisy_env, instance.task_ids, 20, 2)
+    noisy = learned_allocation(comparison["tuned"]["actor"], noisy_env, 20, 2)
     log(f"learned allocation {allocation['robot_tasks']} (paper {PAPER_ALLOCATION}); "
         f"under measured_tb3 noise: {noisy['mean_makespan_s']} s, {noisy['logic_consistent_pct']} % logic-consistent")
 
@@ -201,10 +204,13 @@ def _main_ros(args, tuned: MappoConfig, embedded_target: float, out: Path, runs:
     if unknown or not modes:
         print(f"bench_mappo: --ros-modes: {','.join(unknown) or '(empty)'}: not pretrained or scratch", file=sys.stderr)
         return 2
+    if args.pretrain_seeds < 1:
+        print(f"bench_mappo: --pretrain-seeds: {args.pretrain_seeds}: must be at least 1", file=sys.stderr)
+        return 2
     scenario = str(Path(args.scenario).resolve())
     try:
         ros = measure(tuned, scenario, args.arenas, args.ros_minutes, args.ros_port, 0, runs.resolve(),
-                      embedded_target, train, modes, log)
+                      embedded_target, train, modes, log, pretrain_seeds=args.pretrain_seeds)
         ros["preset"], ros["overrides"] = args.preset, args.set
     except GraphError as error:
         print(f"bench_mappo: {error}", file=sys.stderr)

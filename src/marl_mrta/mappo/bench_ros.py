@@ -4,12 +4,14 @@ Starts its own graph (`tasks.launch arenas:=K mask:=<the preset's action_mask>`,
 built-in navigation, on a private master port) and measures, against the exact plan's
 makespan *in the same simulation* (its one episode run first; target = 1.05 × that):
 
-- `pretrained`: the tuned preset trains on the embedded backend until its greedy policy is
+- `pretrained`: the preset trains on the embedded backend (seed 0) until its greedy policy is
   within 5 % of the embedded exact optimum; the greedy policy is then evaluated in the K ROS
-  arenas (one episode each); if it is not yet within 5 % of the ROS exact makespan, training
-  goes on on the ros backend from that checkpoint (networks, optimisers, normaliser), with a
-  greedy evaluation in the arenas after every update. Time to policy = embedded training +
-  ROS evaluations and training (graph start-up excluded, reported apart).
+  arenas (one episode each). If it misses the ROS target, the next seed is trained and checked,
+  up to `--pretrain-seeds` candidates (one whose embedded allocation already missed is skipped);
+  if none passes, the best trains on on the ros backend from its checkpoint (networks,
+  optimisers, normaliser), with a greedy evaluation in the arenas after every update. Time to
+  policy = all embedded training + ROS evaluations and training (graph start-up excluded,
+  reported apart).
 - `scratch`: the preset (`--preset`, default tuned) on the ros backend alone (n_envs = K) with a greedy evaluation
   in the arenas after every update, until the target or `--ros-minutes`.
 The results go into the `ros` section and the headline of <out>/bench_mappo.json; the
@@ -116,8 +118,68 @@ def _ros_run(runner: Runner, minutes: float, log) -> Dict[str, Any]:
             "actor": str(runner.actor_path)}
 
 
+def _pretrained(tuned: MappoConfig, ros_config: MappoConfig, scenario_path: str, scenario_file: str, pool, seed: int,
+                pretrain_seeds: int, runs: Path, embedded_target: float, target: float, minutes: float,
+                train_embedded: Callable, log) -> Dict[str, Any]:
+    """Embedded candidates (seeds seed, seed+1, ...) checked greedily in the ROS arenas in turn; the
+    first within the target is the policy. The embedded executor does not model robots meeting, so
+    allocations it scores alike can differ by seconds in ROS (docs/mappo.md); a candidate whose
+    embedded allocation already failed in ROS is not run again. If none passes, the best one trains
+    on in ROS. Time to policy counts every embedded training and every ROS evaluation."""
+    out = runs / "ros_pretrained"
+
+    def ros_runner(actor: str) -> Runner:
+        """A fresh ros-backend run in `out`, starting from the embedded run's checkpoint beside `actor`."""
+        shutil.rmtree(out, ignore_errors=True)
+        runner = Runner(ros_config, None, scenario=scenario_file, seed=seed, out_dir=out, log=log,
+                        target_makespan=target, stop_at_target=True, tensorboard=False, plots=False, pool=pool)
+        runner.trainer.load_state_dict(Runner.read_checkpoint(Path(actor).with_name("checkpoint.pt"))["trainer"])
+        runner.start()
+        return runner
+
+    spent = 0.0
+    candidates: List[Dict[str, Any]] = []
+    failed_allocations: List[Any] = []
+    best: Optional[Dict[str, Any]] = None
+    for k in range(pretrain_seeds):
+        embedded = train_embedded(replace(tuned, eval_every=1), scenario_path, seed + k, runs / f"ros_pretrain_s{seed + k}",
+                                  embedded_target, True, log)
+        spent += embedded["train_wall_s"]
+        candidate: Dict[str, Any] = {"embedded": embedded}
+        candidates.append(candidate)
+        if embedded["time_to_policy_s"] is None:
+            candidate["ros"] = "not run: the embedded target was not reached"
+            continue
+        if embedded["greedy_allocation"] in failed_allocations:
+            candidate["ros"] = "not run: the same allocation already missed the target in ROS"
+            log(f"  seed {seed + k}: allocation {embedded['greedy_allocation']} already missed in ROS; skipped")
+            continue
+        runner = ros_runner(embedded["actor"])
+        first = runner.evaluate()
+        candidate["ros"] = {"greedy_makespan_s": round(first["makespan"], 2), "wall_s": round(runner.wall_time, 1)}
+        log(f"  seed {seed + k}: embedded actor greedy in ROS {first['makespan']:.2f} s ({first['wall_time']:.1f} s wall)")
+        if runner.time_to_target is not None:
+            runner.save_checkpoint()
+            spent += runner.time_to_target
+            return {"candidates": candidates, "chosen_seed": seed + k, "ros_training": None,
+                    "actor": str(runner.actor_path), "time_to_policy_s": round(spent, 2)}
+        spent += runner.wall_time
+        failed_allocations.append(embedded["greedy_allocation"])
+        if best is None or first["makespan"] < best["makespan"]:
+            best = {"makespan": first["makespan"], "seed": seed + k, "actor": embedded["actor"]}
+    if best is None:
+        return {"candidates": candidates, "chosen_seed": None, "ros_training": None, "time_to_policy_s": None}
+    log(f"  no candidate within the target; seed {best['seed']} ({best['makespan']:.2f} s) trains on in ROS")
+    runner = ros_runner(best["actor"])
+    ros_training = _ros_run(runner, minutes, log)
+    reached = runner.time_to_target
+    return {"candidates": candidates, "chosen_seed": best["seed"], "ros_training": ros_training,
+            "actor": ros_training["actor"], "time_to_policy_s": None if reached is None else round(spent + reached, 2)}
+
+
 def measure(tuned: MappoConfig, scenario_path: str, arenas: int, minutes: float, port: int, seed: int,
-            runs: Path, embedded_target: float, train_embedded: Callable, modes: List[str], log) -> Dict[str, Any]:
+            runs: Path, embedded_target: float, train_embedded: Callable, modes: List[str], log,
+            pretrain_seeds: int = 1) -> Dict[str, Any]:
     from .cli import ros_pool
 
     ros_config = replace(tuned, n_envs=arenas, eval_every=1, eval_episodes=arenas)
@@ -139,30 +201,12 @@ def measure(tuned: MappoConfig, scenario_path: str, arenas: int, minutes: float,
         result["target_s"] = round(target, 3)
 
         if "pretrained" in modes:
-            log(f"pretrained: embedded training to {embedded_target:.2f} s, then the ROS arenas (target {target:.2f} s)")
-            embedded = train_embedded(replace(tuned, eval_every=1), scenario_path, seed, runs / "ros_pretrain",
-                                      embedded_target, True, log)
-            out = runs / "ros_pretrained"
-            shutil.rmtree(out, ignore_errors=True)
-            runner = Runner(ros_config, None, scenario=scenario_file, seed=seed, out_dir=out, log=log,
-                            target_makespan=target, stop_at_target=True, tensorboard=False, plots=False, pool=pool)
-            stored = Runner.read_checkpoint(Path(embedded["actor"]).with_name("checkpoint.pt"))
-            runner.trainer.load_state_dict(stored["trainer"])
-            runner.start()
-            first = runner.evaluate()
-            log(f"  embedded actor greedy in ROS: {first['makespan']:.2f} s ({first['wall_time']:.1f} s wall)")
-            ros_part = {"first_greedy_makespan_s": round(first["makespan"], 2)}
-            if runner.time_to_target is None:
-                ros_part.update(_ros_run(runner, minutes, log))
-            else:
-                runner.save_checkpoint()
-                ros_part.update(updates=0, env_steps=0, wall_s=round(runner.wall_time, 1),
-                                time_to_policy_s=runner.time_to_target, actor=str(runner.actor_path))
-            reached = runner.time_to_target
-            total = None if reached is None else round(embedded["time_to_policy_s"] + reached, 2)
-            result["pretrained"] = {"embedded": embedded, "ros": ros_part, "time_to_policy_s": total}
-            log(f"  pretrained: time to policy {total} s (embedded {embedded['time_to_policy_s']} s + ROS "
-                f"{None if reached is None else round(reached, 1)} s)")
+            log(f"pretrained: embedded training of up to {pretrain_seeds} seeds to {embedded_target:.2f} s, each "
+                f"checked in the ROS arenas (target {target:.2f} s)")
+            result["pretrained"] = _pretrained(tuned, ros_config, scenario_path, scenario_file, pool, seed, pretrain_seeds,
+                                               runs, embedded_target, target, minutes, train_embedded, log)
+            result["pretrained"]["target_s"] = result["target_s"]
+            log(f"  pretrained: time to policy {result['pretrained']['time_to_policy_s']} s")
 
         if "scratch" in modes:
             log(f"scratch: {ros_config.decision_order} decisions, batch {ros_config.batch_size}, on {arenas} ROS arenas, at most {minutes:g} min (target {target:.2f} s)")
@@ -173,6 +217,7 @@ def measure(tuned: MappoConfig, scenario_path: str, arenas: int, minutes: float,
             runner.start()
             scratch = _ros_run(runner, minutes, log)
             scratch["cap_minutes"] = minutes
+            scratch["target_s"] = result["target_s"]
             result["scratch"] = scratch
             log(f"  scratch: time to policy {scratch['time_to_policy_s']} s after {scratch['env_steps']} steps "
                 f"({scratch['steps_per_s']} steps/s); greedy {scratch['greedy_makespans_s']}")
@@ -183,11 +228,15 @@ def measure(tuned: MappoConfig, scenario_path: str, arenas: int, minutes: float,
 def merge_into(path: Path, ros: Dict[str, Any]) -> Dict[str, Any]:
     """bench_mappo.json with its `ros` section and ros headline rows replaced, the rest kept."""
     document = json.loads(path.read_text()) if path.exists() else {"headline": []}
+    for mode in ("pretrained", "scratch"):   # a mode not run this time keeps its last result (and its own target)
+        if mode not in ros and mode in document.get("ros", {}):
+            ros[mode] = document["ros"][mode]
     document["ros"] = ros
     rows = [row for row in document.get("headline", []) if "ros" not in row["figure"]]
     pretrained = ros.get("pretrained", {})
     if pretrained:
-        rows.append({"figure": f"time to policy, ros backend, lab_2r (embedded pretraining + {ros['arenas']} ROS arenas)",
+        rows.append({"figure": f"time to policy, ros backend, lab_2r (embedded candidates checked in {ros['arenas']} ROS arenas, "
+                               "trained on there if none passes)",
                      "value": pretrained.get("time_to_policy_s"), "unit": "s", "goal": "<= 600"})
     scratch = ros.get("scratch")
     if scratch:

@@ -284,7 +284,7 @@ def execute(args: argparse.Namespace, log: Callable[[str], None]) -> Dict:
                title=f"decentralised · {env.scenario.name}")
     document = {
         "scenario": str(env.scenario.source), "scenario_name": env.scenario.name, "executor": "ros",
-        "execution": "decentralised", "robots": namespaces, "mask": env.settings.mask,
+        "execution": "decentralised", "profile": env.noise_profile, "robots": namespaces, "mask": env.settings.mask,
         "episodes": args.episodes, "seed": args.seed, "exact_makespan": exact_makespan,
         "seconds": seconds, "summary": summary.as_dict(), "gantt": str(gantt),
         "representative_episode": records[summary.representative].to_dict(),

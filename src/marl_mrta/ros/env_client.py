@@ -59,6 +59,11 @@ class RosTaskEnvClient:
         self.state_dim = int(env["state_dim"])
 
     @property
+    def noise_profile(self) -> str:
+        """The simulator's noise profile (what the episodes ran under; the simulator node is /simulator)."""
+        return str(rospy.get_param("/simulator/noise_profile", "unknown"))
+
+    @property
     def scenario_path(self) -> Path:
         return Path(self.scenario.source).resolve()
 
