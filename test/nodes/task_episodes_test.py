@@ -85,25 +85,26 @@ class TaskEpisodesTest(unittest.TestCase):
             self.assertLess(time.monotonic(), deadline, "timed out waiting for " + what)
             rospy.rostime.wallsleep(0.05)
 
+    def run_exact(self, episodes):
+        """The evaluation command's exact episodes through the manager; its result document."""
+        out = os.path.join(tempfile.mkdtemp(), "exact.json")
+        code = evaluate_main(["--executor", "ros", "--method", "exact", "--episodes", str(episodes), "--out", out,
+                              "--quiet"])
+        self.assertEqual(code, 0)
+        with open(out) as f:
+            return json.load(f)
+
     def test_exact_episodes_repeat_to_the_tick(self):
         # Runs first (name order): the graph's first episode, started from launch, must equal the
         # next one, started from a reset after driving (lock-step: no dependence on history or load).
-        out = os.path.join(tempfile.mkdtemp(), "exact_twice.json")
-        code = evaluate_main(["--executor", "ros", "--method", "exact", "--episodes", "2", "--out", out, "--quiet"])
-        self.assertEqual(code, 0)
-        with open(out) as f:
-            episodes = json.load(f)["results"][0]["episodes"]
+        episodes = self.run_exact(2)["results"][0]["episodes"]
         self.assertEqual([e["complete"] for e in episodes], [True, True])
         self.assertAlmostEqual(episodes[0]["makespan"], episodes[1]["makespan"], places=6,
                                msg="makespans of the first and second exact episode: %s" % [e["makespan"] for e in episodes])
 
     def test_exact_schedule_completes_and_topics_match_the_record(self):
         self.recorder.clear()
-        out = os.path.join(tempfile.mkdtemp(), "exact.json")
-        code = evaluate_main(["--executor", "ros", "--method", "exact", "--episodes", "1", "--out", out, "--quiet"])
-        self.assertEqual(code, 0)
-        with open(out) as f:
-            data = json.load(f)
+        data = self.run_exact(1)
         self.assertEqual(data["executor"], "ros")
         self.assertEqual(data["profile"], "ideal")   # the simulator's, which the episode ran under
         summary = data["results"][0]["summary"]

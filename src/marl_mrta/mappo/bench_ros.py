@@ -178,8 +178,8 @@ def _pretrained(tuned: MappoConfig, ros_config: MappoConfig, scenario_path: str,
 
 
 def measure(tuned: MappoConfig, scenario_path: str, arenas: int, minutes: float, port: int, seed: int,
-            runs: Path, embedded_target: float, train_embedded: Callable, modes: List[str], log,
-            pretrain_seeds: int = 1) -> Dict[str, Any]:
+            runs: Path, embedded_target: float, train_embedded: Callable, modes: List[str], log, *,
+            pretrain_seeds: int) -> Dict[str, Any]:
     from .cli import ros_pool
 
     ros_config = replace(tuned, n_envs=arenas, eval_every=1, eval_episodes=arenas)
