@@ -174,3 +174,88 @@ def test_ros_backend_without_a_graph_is_one_line(tmp_path):
     assert len(lines) == 1 and "Traceback" not in run.stderr
     assert lines[0].startswith("train: no ROS master at http://localhost:1")
     assert "tasks.launch arenas:=2 mask:=logic" in lines[0]
+
+
+class _WaitsForOther:
+    """Environment 0 of a pair: its second step returns only once environment 1 (`other`) has taken
+    `steps` more steps, which can happen only if the two are not stepped in lock-step."""
+
+    def __init__(self, env, other, steps):
+        self.env, self.other, self.steps, self.calls = env, other, steps, 0
+        self.n_agents, self.n_actions, self.obs_dim, self.state_dim = env.n_agents, env.n_actions, env.obs_dim, env.state_dim
+        self.scenario = env.scenario
+
+    def reset(self, seed=None):
+        return self.env.reset(seed=seed)
+
+    def step(self, actions):
+        self.calls += 1
+        if self.calls == 2:
+            with self.other.advanced:
+                target = self.other.calls + self.steps
+                assert self.other.advanced.wait_for(lambda: self.other.calls >= target, timeout=60.0), \
+                    "environment 1 did not step while environment 0's step was running"
+        return self.env.step(actions)
+
+
+class _Counted:
+    """Environment 1 of the pair: counts its steps and tells whoever waits on them."""
+
+    def __init__(self, env):
+        import threading
+        self.env, self.calls, self.advanced = env, 0, threading.Condition()
+        self.n_agents, self.n_actions, self.obs_dim, self.state_dim = env.n_agents, env.n_actions, env.obs_dim, env.state_dim
+        self.scenario = env.scenario
+
+    def reset(self, seed=None):
+        return self.env.reset(seed=seed)
+
+    def step(self, actions):
+        out = self.env.step(actions)
+        with self.advanced:
+            self.calls += 1
+            self.advanced.notify_all()
+        return out
+
+
+def test_arenas_of_a_simulation_do_not_wait_for_each_others_steps(tmp_path):
+    config = config_from_dict({**TINY, "total_env_steps": 24})
+    build = env_factory(SCENARIO, config)
+    fast = _Counted(build())
+    slow = _WaitsForOther(build(), fast, 3)
+    pool = EnvPool([slow, fast], 7, parallel=True, replayable=False)
+    assert pool.independent
+    runner = Runner(config, None, scenario=SCENARIO, seed=7, out_dir=tmp_path / "run", log=lambda line: None,
+                    tensorboard=False, plots=False, pool=pool)
+    runner.start()
+    assert runner.run().env_steps == 24
+    assert slow.calls >= 2   # the waiting step was taken (and did not time out)
+
+
+def test_each_arena_column_of_the_buffer_is_that_arenas_own_trajectory(tmp_path):
+    config = config_from_dict({**TINY, "batch_size": 40, "chunk_length": 4})
+    build = env_factory(SCENARIO, config)
+    pool = EnvPool([build(), build()], 11, parallel=True, replayable=False)
+    runner = Runner(config, None, scenario=SCENARIO, seed=11, out_dir=tmp_path / "run", log=lambda line: None,
+                    tensorboard=False, plots=False, pool=pool)
+    runner.start()
+    finished = runner.collect()
+    buffer = runner.buffer
+    assert buffer.full and runner.env_steps == 40
+    ended = 0
+    for i in range(2):
+        # Replaying column i's actions from the seeds of arena i's episodes gives its states.
+        env, episode = build(), 0
+        out = env.reset(seed=episode_seed(11, i, episode))
+        for t in range(buffer.rollout_length):
+            np.testing.assert_allclose(buffer.state[t, i].numpy(), out.state, rtol=0, atol=1e-6)
+            assert bool(buffer.episode_start[t, i]) == (t == 0 or bool(buffer.terminated[t - 1, i] | buffer.truncated[t - 1, i]))
+            out = env.step([int(a) for a in buffer.actions[t, i]])
+            assert bool(buffer.terminated[t, i]) == out.done
+            if out.done or out.truncated:
+                ended += 1
+                episode += 1
+                out = env.reset(seed=episode_seed(11, i, episode))
+        assert pool.episode_index[i] == episode
+    assert ended == len(finished) > 0
+    np.testing.assert_array_equal(runner.current.state[1], out.state)

@@ -9,7 +9,9 @@ are deterministic given reset seed and actions) without pickling them.
 Environments whose step is a blocking call that waits for a simulation (the ros backend:
 one arena per environment) are stepped in parallel threads (`parallel=True`), and, since a
 simulation is not repeatable bit for bit, are not replayed on restore (`replayable=False`):
-the episodes running at the checkpoint are abandoned and fresh ones start.
+the episodes running at the checkpoint are abandoned and fresh ones start. Such environments
+may also be stepped one at a time (`step_one`), each by its own thread, so that none waits
+for another's step to end.
 """
 from __future__ import annotations
 
@@ -109,6 +111,12 @@ class EnvPool:
         self._tallies = [_EpisodeTally(self.n_agents) for _ in range(n_envs)]
         self._latest: List[Optional[StepOutput]] = [None] * n_envs
 
+    @property
+    def independent(self) -> bool:
+        """Stepped in threads and not replayable (arenas of a simulation): each environment may run
+        on its own (step_one) without changing what a run means."""
+        return self._threads is not None and not self.replayable
+
     def _reset(self, i: int) -> StepOutput:
         out = self.envs[i].reset(seed=episode_seed(self.run_seed, i, self.episode_index[i]))
         self.episode_actions[i] = []
@@ -163,17 +171,12 @@ class EnvPool:
         joints = [[int(a) for a in actions[i]] for i in range(self.n_envs)]
         outputs = self._map(lambda i: self.envs[i].step(joints[i]))
         for i, out in enumerate(outputs):
-            joint = joints[i]
-            self.episode_actions[i].append(joint)
-            self._tallies[i].add(out)
+            summary = self._took(i, joints[i], out)
             rewards[i] = out.rewards
             final_state[i] = out.state
-            if out.done or out.truncated:
+            if summary is not None:
                 terminated[i], truncated[i] = bool(out.done), not out.done
-                finished.append(self._record(i, out))
-                self.episode_index[i] += 1
-            else:
-                self._latest[i] = out
+                finished.append(summary)
         ended = [i for i in range(self.n_envs) if terminated[i] or truncated[i]]
         if self._threads is None or len(ended) < 2:
             for i in ended:
@@ -181,6 +184,38 @@ class EnvPool:
         else:
             list(self._threads.map(self._reset, ended))
         return self._current(rewards, terminated, truncated, finished, final_state)
+
+    def step_one(self, i: int, actions: np.ndarray) -> PoolStep:
+        """Environment i alone, joint actions (N,): step() for one row (rows of the result: 1).
+        For environments that run independently of each other (module doc)."""
+        joint = [int(a) for a in actions]
+        out = self.envs[i].step(joint)
+        summary = self._took(i, joint, out)
+        if summary is not None:
+            self._reset(i)
+        latest = self._latest[i]
+        ended = summary is not None
+        return PoolStep(obs=latest.obs[None], state=latest.state[None],
+                        action_mask=np.asarray(latest.action_mask, bool)[None],
+                        rewards=np.asarray(out.rewards, np.float32)[None],
+                        terminated=np.array([ended and bool(out.done)]),
+                        truncated=np.array([ended and not out.done]),
+                        final_state=np.asarray(out.state, np.float32)[None],
+                        finished=[summary] if ended else [])
+
+    def current(self) -> PoolStep:
+        """What every environment acts on next (no step taken: rewards zero, nothing ended)."""
+        return self._fresh()
+
+    def _took(self, i: int, joint: List[int], out: StepOutput) -> Optional[EpisodeSummary]:
+        """Books environment i's step; an episode it ended is recorded (returned), not yet reset."""
+        self.episode_actions[i].append(joint)
+        self._tallies[i].add(out)
+        if not (out.done or out.truncated):
+            self._latest[i] = out
+            return None
+        self.episode_index[i] += 1
+        return self._record(i, out)
 
     def _record(self, i: int, final: StepOutput) -> EpisodeSummary:
         tally = self._tallies[i]

@@ -23,6 +23,7 @@ import random
 import signal
 import threading
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Dict, List, Optional, Sequence
@@ -90,6 +91,19 @@ class RunSummary:
     steps_to_target: Optional[int]
     stopped_early: bool
     last_metrics: Dict[str, float] = field(default_factory=dict)
+
+
+@dataclass
+class _Choice:
+    """The robots' sampled actions in E environments, and what the buffer keeps of them."""
+
+    obs: torch.Tensor           # (E, N, actor_obs_dim) actor inputs
+    mask: torch.Tensor          # (E, N, A) masks the actions were sampled under
+    actions: torch.Tensor       # (E, N)
+    log_probs: torch.Tensor     # (E, N)
+    next_hidden: torch.Tensor   # (E, N, H)
+    state: torch.Tensor         # (E, state_dim)
+    values: torch.Tensor        # (E, N) the critic's, reward units
 
 
 class Runner:
@@ -219,56 +233,106 @@ class Runner:
     @torch.no_grad()
     def collect(self) -> List[EpisodeSummary]:
         """Fill the buffer with rollout_length steps of every environment."""
-        c, E, N = self.config, self.config.n_envs, self.n_agents
+        if self.pool.independent:
+            return self._collect_independently()
+        E = self.config.n_envs
         finished: List[EpisodeSummary] = []
         self.buffer.reset()
         while not self.buffer.full:
             if self.stop_requested and not self.pool.replayable:
                 raise _UpdateAbandoned
             step = self.current
-            state = torch.from_numpy(step.state).float()
-            obs, mask, actions, log_probs, next_hidden = self._choose(torch.from_numpy(step.obs).float(),
-                                                                      torch.from_numpy(step.action_mask))
-            values = self.trainer.values(state)
-
-            result = self.pool.step(actions.reshape(E, N).numpy())
-            rewards = torch.from_numpy(result.rewards).float()
-            if c.team_reward:
-                # A share of its own reward tells a robot which of its choices the team paid for
-                # (with four robots the mean alone hides who took a task another already had).
-                team = rewards.mean(dim=1, keepdim=True).expand(E, N)
-                rewards = c.own_reward_share * rewards + (1.0 - c.own_reward_share) * team
-            terminated = torch.from_numpy(result.terminated)
-            truncated = torch.from_numpy(result.truncated)
-            final_values = torch.zeros(E, N)
-            if result.truncated.any():
-                final_values = self.trainer.values(torch.from_numpy(result.final_state).float())
-            self.buffer.insert(obs=obs, state=state, actions=actions.reshape(E, N), action_mask=mask,
-                               log_probs=log_probs.reshape(E, N), values=values,
-                               rewards=rewards * c.reward_scale, episode_start=self.episode_start,
-                               terminated=terminated, truncated=truncated, final_values=final_values,
-                               actor_hidden=self.hidden)
-            self.hidden = next_hidden
-            self.episode_start = terminated | truncated
+            choice = self._choose(step, self.hidden, self.episode_start)
+            result = self.pool.step(choice.actions.numpy())
+            self.buffer.insert(**self._transition(step, choice, result, self.hidden, self.episode_start))
+            self.hidden = choice.next_hidden
+            self.episode_start = torch.from_numpy(result.terminated | result.truncated)
             self.current = result
             self.env_steps += E
             finished.extend(result.finished)
         return finished
 
-    def _choose(self, env_obs: torch.Tensor, env_mask: torch.Tensor):
-        """Sample every robot's action: env_obs (E, N, D), env_mask (E, N, A) -> the actor inputs
-        and masks the actions were sampled under (what the buffer keeps), actions (E, N),
-        their log-probabilities (E, N) and the next GRU state (E, N, H)."""
+    def _collect_independently(self) -> List[EpisodeSummary]:
+        """collect() for environments that run independently (EnvPool.independent: arenas of one
+        simulation): each takes its rollout_length steps in its own thread, never waiting for
+        another's step to end (a shared barrier would leave every arena idle until the slowest
+        finished). The networks and the action RNG are used under a lock."""
+        E, T = self.config.n_envs, self.config.rollout_length
+        lock = threading.Lock()
+        rows: List[List[Dict[str, torch.Tensor]]] = [[] for _ in range(E)]
+        finished: List[List[EpisodeSummary]] = [[] for _ in range(E)]
+        ends: List[Any] = [None] * E
+        start = self.current
+
+        def run(i: int) -> bool:
+            step = PoolStep(obs=start.obs[i:i + 1], state=start.state[i:i + 1], action_mask=start.action_mask[i:i + 1],
+                            rewards=start.rewards[i:i + 1], terminated=start.terminated[i:i + 1],
+                            truncated=start.truncated[i:i + 1], final_state=start.final_state[i:i + 1])
+            hidden, episode_start = self.hidden[i:i + 1].clone(), self.episode_start[i:i + 1].clone()
+            for _ in range(T):
+                if self.stop_requested:
+                    return False
+                with lock:
+                    choice = self._choose(step, hidden, episode_start)
+                result = self.pool.step_one(i, choice.actions[0].numpy())
+                with lock:
+                    rows[i].append(self._transition(step, choice, result, hidden, episode_start))
+                hidden, episode_start = choice.next_hidden, torch.from_numpy(result.terminated | result.truncated)
+                step = result
+                finished[i].extend(result.finished)
+            ends[i] = (hidden, episode_start)
+            return True
+
+        with ThreadPoolExecutor(max_workers=E, thread_name_prefix="collect") as threads:
+            completed = list(threads.map(run, range(E)))
+        if not all(completed):
+            raise _UpdateAbandoned
+        self.buffer.reset()
+        for t in range(T):
+            self.buffer.insert(**{key: torch.cat([rows[i][t][key] for i in range(E)]) for key in rows[0][t]})
+        self.hidden = torch.cat([end[0] for end in ends])
+        self.episode_start = torch.cat([end[1] for end in ends])
+        self.current = self.pool.current()
+        self.env_steps += E * T
+        return [summary for per_env in finished for summary in per_env]
+
+    def _transition(self, step: PoolStep, choice: "_Choice", result: PoolStep, hidden: torch.Tensor,
+                    episode_start: torch.Tensor) -> Dict[str, torch.Tensor]:
+        """What the buffer keeps of one step of the environments (rows) of `step`."""
+        c = self.config
+        E, N = choice.actions.shape
+        rewards = torch.from_numpy(result.rewards).float()
+        if c.team_reward:
+            # A share of its own reward tells a robot which of its choices the team paid for
+            # (with four robots the mean alone hides who took a task another already had).
+            team = rewards.mean(dim=1, keepdim=True).expand(E, N)
+            rewards = c.own_reward_share * rewards + (1.0 - c.own_reward_share) * team
+        final_values = torch.zeros(E, N)
+        if result.truncated.any():
+            final_values = self.trainer.values(torch.from_numpy(result.final_state).float())
+        return dict(obs=choice.obs, state=choice.state, actions=choice.actions, action_mask=choice.mask,
+                    log_probs=choice.log_probs, values=choice.values, rewards=rewards * c.reward_scale,
+                    episode_start=episode_start, terminated=torch.from_numpy(result.terminated),
+                    truncated=torch.from_numpy(result.truncated), final_values=final_values, actor_hidden=hidden)
+
+    def _choose(self, step: PoolStep, hidden: torch.Tensor, episode_start: torch.Tensor) -> "_Choice":
+        """Sample every robot's action in the environments (rows E) of `step`, from the GRU
+        states `hidden` (E, N, H): the actor inputs and masks the actions were sampled under
+        (what the buffer keeps), actions (E, N), their log-probabilities, the next GRU state, and
+        the critic's values of the state."""
+        state = torch.from_numpy(step.state).float()
+        env_obs, env_mask = torch.from_numpy(step.obs).float(), torch.from_numpy(step.action_mask)
         E, N = env_obs.shape[:2]
         trainer = self.trainer
         if not trainer.sequential:
             obs = trainer.actor_obs(env_obs)
-            out = trainer.actor(obs.reshape(1, E * N, -1), self.hidden.reshape(E * N, -1),
-                                self.episode_start.repeat_interleave(N).unsqueeze(0), env_mask.reshape(1, E * N, -1))
+            out = trainer.actor(obs.reshape(1, E * N, -1), hidden.reshape(E * N, -1),
+                                episode_start.repeat_interleave(N).unsqueeze(0), env_mask.reshape(1, E * N, -1))
             logits = out.logits[0]
             actions = sample_actions(logits, self.action_generator)
             log_probs, _ = log_prob_and_entropy(logits, actions)
-            return obs, env_mask, actions.reshape(E, N), log_probs.reshape(E, N), out.hidden.reshape(E, N, -1)
+            return _Choice(obs, env_mask, actions.reshape(E, N), log_probs.reshape(E, N), out.hidden.reshape(E, N, -1),
+                           state, trainer.values(state))
         # Robots in index order, each seeing the tasks claimed before it (mappo/claims.py).
         n_tasks = env_mask.shape[-1] - 1
         identity = torch.eye(N)
@@ -276,22 +340,21 @@ class Runner:
         mask = torch.zeros_like(env_mask)
         actions = torch.zeros(E, N, dtype=torch.long)
         log_probs = torch.zeros(E, N)
-        next_hidden = torch.zeros_like(self.hidden)
+        next_hidden = torch.zeros_like(hidden)
         claimed = torch.zeros(E, n_tasks, dtype=torch.bool)
         for robot in range(N):
             obs_i = with_claims(env_obs[:, robot], claimed)
             if self.config.append_agent_id:
                 obs_i = torch.cat([obs_i, identity[robot].expand(E, N)], dim=-1)
             mask_i = self.claim_rules.mask(env_mask[:, robot], claimed)
-            out = trainer.actor(obs_i.unsqueeze(0), self.hidden[:, robot], self.episode_start.unsqueeze(0),
-                                mask_i.unsqueeze(0))
+            out = trainer.actor(obs_i.unsqueeze(0), hidden[:, robot], episode_start.unsqueeze(0), mask_i.unsqueeze(0))
             logits = out.logits[0]
             action_i = sample_actions(logits, self.action_generator)
             log_prob_i, _ = log_prob_and_entropy(logits, action_i)
             obs[:, robot], mask[:, robot], actions[:, robot] = obs_i, mask_i, action_i
             log_probs[:, robot], next_hidden[:, robot] = log_prob_i, out.hidden
             claimed |= claimed_flags(action_i.unsqueeze(1), n_tasks)
-        return obs, mask, actions, log_probs, next_hidden
+        return _Choice(obs, mask, actions, log_probs, next_hidden, state, trainer.values(state))
 
     @torch.no_grad()
     def compute(self) -> None:
