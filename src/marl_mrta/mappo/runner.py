@@ -264,6 +264,7 @@ class Runner:
         ends: List[Any] = [None] * E
         start = self.current
 
+        @torch.no_grad()   # grad mode is per thread: the decorator of collect() does not reach here
         def run(i: int) -> bool:
             step = PoolStep(obs=start.obs[i:i + 1], state=start.state[i:i + 1], action_mask=start.action_mask[i:i + 1],
                             rewards=start.rewards[i:i + 1], terminated=start.terminated[i:i + 1],
@@ -296,7 +297,7 @@ class Runner:
         self.env_steps += E * T
         return [summary for per_env in finished for summary in per_env]
 
-    def _transition(self, step: PoolStep, choice: "_Choice", result: PoolStep, hidden: torch.Tensor,
+    def _transition(self, step: PoolStep, choice: _Choice, result: PoolStep, hidden: torch.Tensor,
                     episode_start: torch.Tensor) -> Dict[str, torch.Tensor]:
         """What the buffer keeps of one step of the environments (rows) of `step`."""
         c = self.config
@@ -315,7 +316,7 @@ class Runner:
                     episode_start=episode_start, terminated=torch.from_numpy(result.terminated),
                     truncated=torch.from_numpy(result.truncated), final_values=final_values, actor_hidden=hidden)
 
-    def _choose(self, step: PoolStep, hidden: torch.Tensor, episode_start: torch.Tensor) -> "_Choice":
+    def _choose(self, step: PoolStep, hidden: torch.Tensor, episode_start: torch.Tensor) -> _Choice:
         """Sample every robot's action in the environments (rows E) of `step`, from the GRU
         states `hidden` (E, N, H): the actor inputs and masks the actions were sampled under
         (what the buffer keeps), actions (E, N), their log-probabilities, the next GRU state, and
