@@ -2,7 +2,9 @@
 the training reward recomputed from a step's info equals the reward an environment built with
 it gives; a parallel pool steps exactly like a sequential one; a pool that cannot replay
 restarts its episodes on resume and evaluates in its own environments; a stop signal while
-collecting from such a pool keeps the previous update's checkpoint; `train --set`/`--arenas`."""
+collecting from such a pool keeps the previous update's checkpoint; such a pool's arenas collect
+without waiting for each other's steps, each into its own buffer column, and one arena's error
+stops the others; `train --set`/`--arenas`."""
 import dataclasses
 import os
 import subprocess
@@ -259,3 +261,45 @@ def test_each_arena_column_of_the_buffer_is_that_arenas_own_trajectory(tmp_path)
         assert pool.episode_index[i] == episode
     assert ended == len(finished) > 0
     np.testing.assert_array_equal(runner.current.state[1], out.state)
+
+
+class _Fails(_Counted):
+    """An environment whose third step raises, as a lost task manager does."""
+
+    def __init__(self, env):
+        import threading
+        super().__init__(env)
+        self.raised = threading.Event()
+
+    def step(self, actions):
+        if self.calls == 2:
+            self.raised.set()
+            raise RuntimeError("arena_1/rl_task_allocation_manager/step: manager lost")
+        return super().step(actions)
+
+
+class _WaitsForFailure(_Counted):
+    """Its second step ends only once the other arena has failed."""
+
+    def __init__(self, env, failing):
+        super().__init__(env)
+        self.failing = failing
+
+    def step(self, actions):
+        if self.calls == 1:
+            assert self.failing.raised.wait(timeout=60.0), "the failing arena never took its third step"
+        return super().step(actions)
+
+
+def test_an_arena_that_fails_stops_the_other_at_its_next_step(tmp_path):
+    config = config_from_dict({**TINY, "batch_size": 200, "chunk_length": 4, "total_env_steps": 200})
+    build = env_factory(SCENARIO, config)
+    failing = _Fails(build())
+    healthy = _WaitsForFailure(build(), failing)
+    pool = EnvPool([healthy, failing], 7, parallel=True, replayable=False)
+    runner = Runner(config, None, scenario=SCENARIO, seed=7, out_dir=tmp_path / "run", log=lambda line: None,
+                    tensorboard=False, plots=False, pool=pool)
+    runner.start()
+    with pytest.raises(RuntimeError, match="manager lost"):
+        runner.collect()
+    assert healthy.calls < 100   # stopped soon after, not after its 100 steps of the batch

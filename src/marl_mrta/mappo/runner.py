@@ -262,6 +262,7 @@ class Runner:
         rows: List[List[Dict[str, torch.Tensor]]] = [[] for _ in range(E)]
         finished: List[List[EpisodeSummary]] = [[] for _ in range(E)]
         ends: List[Any] = [None] * E
+        failed = threading.Event()   # one arena's error stops the others at their next step
         start = self.current
 
         @torch.no_grad()   # grad mode is per thread: the decorator of collect() does not reach here
@@ -271,11 +272,15 @@ class Runner:
                             truncated=start.truncated[i:i + 1], final_state=start.final_state[i:i + 1])
             hidden, episode_start = self.hidden[i:i + 1].clone(), self.episode_start[i:i + 1].clone()
             for _ in range(T):
-                if self.stop_requested:
+                if self.stop_requested or failed.is_set():
                     return False
                 with lock:
                     choice = self._choose(step, hidden, episode_start)
-                result = self.pool.step_one(i, choice.actions[0].numpy())
+                try:
+                    result = self.pool.step_one(i, choice.actions[0].numpy())
+                except BaseException:
+                    failed.set()
+                    raise
                 with lock:
                     rows[i].append(self._transition(step, choice, result, hidden, episode_start))
                 hidden, episode_start = choice.next_hidden, torch.from_numpy(result.terminated | result.truncated)
