@@ -60,6 +60,13 @@ class PoolStep:
     final_state: np.ndarray      # (E, state_dim) last state of an ended episode (else = state)
     finished: List[EpisodeSummary] = field(default_factory=list)
 
+    def row(self, i: int) -> "PoolStep":
+        """Environment i alone (rows of the result: 1; no finished episodes)."""
+        rows = slice(i, i + 1)
+        return PoolStep(obs=self.obs[rows], state=self.state[rows], action_mask=self.action_mask[rows],
+                        rewards=self.rewards[rows], terminated=self.terminated[rows], truncated=self.truncated[rows],
+                        final_state=self.final_state[rows])
+
 
 def _outcome(final: StepOutput) -> Dict[str, Any]:
     """Episode figures from the schedule record the environment attaches to its last step."""
@@ -135,14 +142,15 @@ class EnvPool:
             return [function(i) for i in range(self.n_envs)]
         return list(self._threads.map(function, range(self.n_envs)))
 
-    def _fresh(self) -> PoolStep:
+    def current(self) -> PoolStep:
+        """What every environment acts on next (no step taken: rewards zero, nothing ended)."""
         return self._current(np.zeros((self.n_envs, self.n_agents), np.float32),
                              np.zeros(self.n_envs, bool), np.zeros(self.n_envs, bool), [])
 
     def reset(self) -> PoolStep:
         """Start the first episode of every environment."""
         self._map(self._reset)
-        return self._fresh()
+        return self.current()
 
     def restart(self) -> PoolStep:
         """Abandon the running episodes (unrecorded) and start the next one in every environment."""
@@ -203,10 +211,6 @@ class EnvPool:
                         final_state=np.asarray(out.state, np.float32)[None],
                         finished=[summary] if ended else [])
 
-    def current(self) -> PoolStep:
-        """What every environment acts on next (no step taken: rewards zero, nothing ended)."""
-        return self._fresh()
-
     def _took(self, i: int, joint: List[int], out: StepOutput) -> Optional[EpisodeSummary]:
         """Books environment i's step; an episode it ended is recorded (returned), not yet reset."""
         self.episode_actions[i].append(joint)
@@ -245,7 +249,7 @@ class EnvPool:
                 self.episode_actions[i].append(list(joint))
                 self._tallies[i].add(out)
                 self._latest[i] = out
-        return self._fresh()
+        return self.current()
 
     def evaluate(self, policy_act: Callable, seeds: Sequence[int]) -> List[EpisodeSummary]:
         """Greedy episodes on these environments (seed k on environment k mod n_envs, in

@@ -267,9 +267,7 @@ class Runner:
 
         @torch.no_grad()   # grad mode is per thread: the decorator of collect() does not reach here
         def run(i: int) -> bool:
-            step = PoolStep(obs=start.obs[i:i + 1], state=start.state[i:i + 1], action_mask=start.action_mask[i:i + 1],
-                            rewards=start.rewards[i:i + 1], terminated=start.terminated[i:i + 1],
-                            truncated=start.truncated[i:i + 1], final_state=start.final_state[i:i + 1])
+            step = start.row(i)
             hidden, episode_start = self.hidden[i:i + 1].clone(), self.episode_start[i:i + 1].clone()
             for _ in range(T):
                 if self.stop_requested or failed.is_set():
