@@ -7,6 +7,7 @@ add_library(${PROJECT_NAME}_nav_core
   src/nav/costmap_grid.cpp
   src/nav/dwa_planner.cpp
   src/nav/footprint.cpp
+  src/nav/ground_truth_localization.cpp
   src/nav/inflation_layer.cpp
   src/nav/layered_costmap.cpp
   src/nav/local_controller.cpp

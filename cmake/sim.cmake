@@ -19,7 +19,8 @@ add_executable(simulator
   src/sim/simulator_ros.cpp
 )
 add_dependencies(simulator ${PROJECT_NAME}_generate_messages_cpp ${catkin_EXPORTED_TARGETS})
-target_link_libraries(simulator ${PROJECT_NAME}_sim_core ${catkin_LIBRARIES})
+# nav_ros: the ground-truth localisation it shares with fake_localization (publish_localization).
+target_link_libraries(simulator ${PROJECT_NAME}_sim_core ${PROJECT_NAME}_nav_ros ${catkin_LIBRARIES})
 
 # Benchmark helpers (scripts/bench_sim): the core alone, and a subscriber to every topic.
 add_executable(bench_sim_core src/sim/bench_sim_core.cpp)

@@ -2,6 +2,9 @@
 
 #include <cmath>
 
+#include "marl_mrta/nav/ground_truth_localization.h"
+#include "marl_mrta/nav/ros_conversions.h"
+
 namespace marl_mrta {
 namespace sim {
 
@@ -13,6 +16,8 @@ RobotMessages robotMessages(const std::string& ns, const LidarSpec& lidar, doubl
   msgs.ground_truth.child_frame_id = ns + "/base_footprint";
   msgs.odom_tf.header.frame_id = msgs.odom.header.frame_id;
   msgs.odom_tf.child_frame_id = msgs.odom.child_frame_id;
+  msgs.map_odom_tf.header.frame_id = msgs.ground_truth.header.frame_id;
+  msgs.map_odom_tf.child_frame_id = msgs.odom.header.frame_id;
   msgs.scan.header.frame_id = ns + "/base_scan";
   msgs.scan.angle_min = lidar.angle_min;
   msgs.scan.angle_increment = lidar.angleIncrement();
@@ -45,6 +50,16 @@ void fillTransform(geometry_msgs::TransformStamped& msg, const ros::Time& stamp,
   msg.transform.translation.x = pose.x;
   msg.transform.translation.y = pose.y;
   msg.transform.rotation = yawQuaternion(pose.yaw);
+}
+
+void fillLocalization(RobotMessages& msgs) {
+  namespace conv = nav::ros_conversions;
+  const nav::Transform2D map_odom = nav::mapToOdom(conv::toPose2D(msgs.ground_truth.pose.pose),
+                                                   conv::toPose2D(msgs.odom.pose.pose), nav::Transform2D{});
+  msgs.map_odom_tf.header.stamp = msgs.ground_truth.header.stamp;
+  msgs.map_odom_tf.transform.translation.x = map_odom.x;
+  msgs.map_odom_tf.transform.translation.y = map_odom.y;
+  msgs.map_odom_tf.transform.rotation = conv::quaternionFromYaw(map_odom.yaw);
 }
 
 }  // namespace sim

@@ -127,6 +127,7 @@ SimConfig readSimConfig(const ros::NodeHandle& private_nh) {
       {"noise_profile", text(config.noise_profile)},
       {"seed", integer(config.seed)},
       {"scan_invalid_as_inf", boolean(config.scan_invalid_as_inf)},
+      {"publish_localization", boolean(config.publish_localization)},
       {"robot_radius", number(robot.radius)},
       {"max_linear_velocity", number(robot.limits.max_linear_velocity)},
       {"max_angular_velocity", number(robot.limits.max_angular_velocity)},

@@ -53,7 +53,7 @@ SimulatorRos::SimulatorRos(ros::NodeHandle& nh, ros::NodeHandle& private_nh) {
 void SimulatorRos::advertise(ros::NodeHandle& nh, ros::NodeHandle& private_nh) {
   const std::vector<std::string> names = robotNamespaces(config_);
   robots_.resize(names.size());
-  transforms_.resize(names.size());
+  transforms_.resize(config_.publish_localization ? 2 * names.size() : names.size());
   for (size_t g = 0; g < names.size(); ++g) {
     RobotIo& io = robots_[g];
     io.ns = names[g];
@@ -192,6 +192,10 @@ void SimulatorRos::publishState(const StepReport& report, bool initial) {
       io.ground_truth_pub.publish(io.msgs.ground_truth);
       fillTransform(io.msgs.odom_tf, now, state.odom_pose);
       transforms_[g] = io.msgs.odom_tf;
+      if (config_.publish_localization) {
+        fillLocalization(io.msgs);
+        transforms_[robots_.size() + g] = io.msgs.map_odom_tf;
+      }
     }
     tf_broadcaster_.sendTransform(transforms_);  // one message for every robot
   }

@@ -103,9 +103,12 @@ def test_evaluation_launch_files_pass_navigation_lockstep_and_noise_on(launch_ar
     assert nodes["/tb3_0/move_base"].package == "marl_mrta"      # defaults: built-in, lock-step, ideal
     assert params["/simulator/lockstep"] is True
     assert params["/simulator/noise_profile"] == "ideal"
-    nodes, params = load(*launch_args, "nav:=stock", "lockstep:=false", "noise_profile:=measured_tb3")
+    assert params["/simulator/publish_localization"] is True and "/tb3_1/fake_localization" not in nodes
+    nodes, params = load(*launch_args, "nav:=stock", "lockstep:=false", "noise_profile:=measured_tb3",
+                         "localization:=fake")
     assert nodes["/tb3_0/move_base"].package == "move_base"
     assert nodes["/tb3_1/fake_localization"].package == "fake_localization"
+    assert params["/simulator/publish_localization"] is False
     assert params["/simulator/lockstep"] is False
     assert params["/simulator/noise_profile"] == "measured_tb3"
 
@@ -135,3 +138,16 @@ def test_project_parameter_files_keep_turtlebot3_values(name):
         pytest.skip("TurtleBot3 parameter files not found at " + TB3_PARAMS)
     with open(original) as a, open(os.path.join(REPO, "config", "nav", name)) as b:
         assert yaml.safe_load(a) == yaml.safe_load(b)
+
+
+def test_simulator_localization_replaces_the_fake_localization_nodes():
+    nodes, params = load("launch/tasks.launch", "arenas:=2")   # the default
+    assert params["/simulator/publish_localization"] is True
+    assert not [name for name in nodes if name.endswith("/fake_localization")]
+    assert "/arena_1/tb3_1/move_base" in nodes
+    nodes, params = load("launch/tasks.launch", "arenas:=2", "localization:=fake")
+    assert params["/simulator/publish_localization"] is False
+    assert len([name for name in nodes if name.endswith("/fake_localization")]) == 4
+    # Training on the ROS simulation uses the simulator's localisation.
+    nodes, params = load("launch/train.launch", "backend:=ros")
+    assert params["/simulator/publish_localization"] is True

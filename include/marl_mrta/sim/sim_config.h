@@ -42,6 +42,9 @@ struct SimConfig {
   std::string noise_profile = "ideal";
   int seed = 0;
   bool scan_invalid_as_inf = false;
+  // Also publish map -> <ns>/odom from ground truth, in the same /tf message as odom -> base
+  // (what fake_localization does, without a node per robot and its messages).
+  bool publish_localization = false;
   RobotSpec robot;
   bool start_paused = false;            // wait for /simulator/pause false before the first tick
   double stop_after = 0.0;              // [s] sim time after which the node exits; 0: never

@@ -21,7 +21,8 @@ struct RobotMessages {
   nav_msgs::Odometry odom;           // <ns>/odom -> <ns>/base_footprint
   nav_msgs::Odometry ground_truth;   // map -> <ns>/base_footprint
   sensor_msgs::LaserScan scan;       // <ns>/base_scan
-  geometry_msgs::TransformStamped odom_tf;
+  geometry_msgs::TransformStamped odom_tf;      // <ns>/odom -> <ns>/base_footprint
+  geometry_msgs::TransformStamped map_odom_tf;  // map -> <ns>/odom (publish_localization)
 };
 
 RobotMessages robotMessages(const std::string& ns, const LidarSpec& lidar, double scan_rate);
@@ -31,6 +32,9 @@ geometry_msgs::Quaternion yawQuaternion(double yaw);
 // Pose and body velocity into an Odometry; the frames stay as they are.
 void fillOdometry(nav_msgs::Odometry& msg, const ros::Time& stamp, const Pose2D& pose, const Twist2D& velocity);
 void fillTransform(geometry_msgs::TransformStamped& msg, const ros::Time& stamp, const Pose2D& pose);
+// map -> odom from the filled ground truth and odometry, computed from those messages exactly as
+// the fake_localization node computes it (nav/ground_truth_localization.h): the same bits.
+void fillLocalization(RobotMessages& msgs);
 
 }  // namespace sim
 }  // namespace marl_mrta

@@ -1,7 +1,7 @@
 """`scripts/bench_mappo --ros`: time to policy on the ros backend (lab_2r, ROS simulation).
 
-Starts its own graph (`tasks.launch arenas:=K mask:=<the preset's action_mask>`, lock-step, as fast as possible,
-built-in navigation, on a private master port) and measures, against the exact plan's
+Starts its own graph (`tasks.launch arenas:=K mask:=<the preset's action_mask> localization:=simulator`,
+lock-step, as fast as possible, built-in navigation, on a private master port) and measures, against the exact plan's
 makespan *in the same simulation* (its one episode run first; target = 1.05 × that):
 
 - `pretrained`: the preset trains on the embedded backend (seed 0) until its greedy policy is
@@ -45,7 +45,7 @@ class RosGraph:
 
     def __init__(self, scenario: str, arenas: int, port: int, log_file: Path, mask: str):
         self.command = ["roslaunch", "-p", str(port), "marl_mrta", "tasks.launch", f"scenario:={scenario}",
-                        f"arenas:={arenas}", f"mask:={mask}"]
+                        f"arenas:={arenas}", f"mask:={mask}", "localization:=simulator"]  # as train.launch
         self.port = port
         self.log_file = log_file
         self.process: Optional[subprocess.Popen] = None

@@ -120,7 +120,8 @@ class RosExecutor:
                 failure = "" if result.succeeded else result.describe()
                 robots.append(RobotOutcome(True, result.succeeded, nav_time, collisions[i], failure))
             else:
-                robots.append(RobotOutcome(True, False, deadline - t0, collisions[i], "goal timeout"))
+                cut = "episode time limit" if time_limit < self.settings.goal_timeout else "goal timeout"
+                robots.append(RobotOutcome(True, False, deadline - t0, collisions[i], cut))
         return StepOutcome(robots=robots)
 
     def finish_step(self, duration: float) -> None:

@@ -18,25 +18,15 @@
 #include <deque>
 #include <memory>
 
-#include "marl_mrta/nav/local_controller.h"
-#include "ros_conversions.h"
+#include "marl_mrta/nav/ground_truth_localization.h"
+#include "marl_mrta/nav/ros_conversions.h"
 
 namespace {
 
 using marl_mrta::nav::Pose2D;
 using marl_mrta::nav::Transform2D;
 namespace conv = marl_mrta::nav::ros_conversions;
-
-// Pose b expressed as a transform (frame of b -> parent).
-Transform2D asTransform(const Pose2D& p) { return {p.x, p.y, p.yaw}; }
-Transform2D compose(const Transform2D& a, const Transform2D& b) {
-  const Pose2D p = a.apply({b.x, b.y, b.yaw});
-  return {p.x, p.y, p.yaw};
-}
-Transform2D inverse(const Transform2D& t) {
-  const double c = std::cos(t.yaw), s = std::sin(t.yaw);
-  return {-(c * t.x + s * t.y), -(-s * t.x + c * t.y), -t.yaw};
-}
+namespace nav = marl_mrta::nav;
 
 // Below these, a change of map -> odom is floating-point rounding of ground truth vs odometry.
 constexpr double kStaticTolerance = 1e-6;  // [m] and [rad]
@@ -82,8 +72,8 @@ class FakeLocalization {
   void onInitialPose(const geometry_msgs::PoseWithCovarianceStamped::ConstPtr& msg) {
     if (!last_truth_) return;
     // Choose the offset that puts the current true pose at the requested one.
-    const Transform2D truth = asTransform(conv::toPose2D(last_truth_->pose.pose));
-    offset_ = compose(asTransform(conv::toPose2D(msg->pose.pose)), inverse(truth));
+    const Transform2D truth = nav::asTransform(conv::toPose2D(last_truth_->pose.pose));
+    offset_ = nav::compose(nav::asTransform(conv::toPose2D(msg->pose.pose)), nav::inverse(truth));
   }
   // Ground truth and odometry of the same instant give map -> odom.
   void tryPair() {
@@ -96,8 +86,9 @@ class FakeLocalization {
     }
   }
   void publish(const nav_msgs::Odometry& truth, const nav_msgs::Odometry& odom) {
-    const Transform2D map_base = compose(offset_, asTransform(conv::toPose2D(truth.pose.pose)));
-    const Transform2D map_odom = compose(map_base, inverse(asTransform(conv::toPose2D(odom.pose.pose))));
+    const Pose2D true_pose = conv::toPose2D(truth.pose.pose);
+    const Transform2D map_base = nav::mapToBase(true_pose, offset_);
+    const Transform2D map_odom = nav::mapToOdom(true_pose, conv::toPose2D(odom.pose.pose), offset_);
     if (!static_broadcaster_ || !static_sent_ || !sameTransform(map_odom, static_map_odom_)) {
       geometry_msgs::TransformStamped tf;
       tf.header.stamp = truth.header.stamp + ros::Duration(transform_tolerance_);

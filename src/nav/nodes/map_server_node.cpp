@@ -6,7 +6,7 @@
 #include <ros/ros.h>
 
 #include "marl_mrta/map/occupancy_map.h"
-#include "ros_conversions.h"
+#include "marl_mrta/nav/ros_conversions.h"
 
 int main(int argc, char** argv) {
   ros::init(argc, argv, "map_server");

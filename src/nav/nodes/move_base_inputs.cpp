@@ -3,7 +3,7 @@
 #include <cmath>
 
 #include "move_base_ros.h"
-#include "ros_conversions.h"
+#include "marl_mrta/nav/ros_conversions.h"
 
 namespace marl_mrta {
 namespace nav {

@@ -8,7 +8,7 @@
 #include <fstream>
 
 #include "marl_mrta/nav/static_layer.h"
-#include "ros_conversions.h"
+#include "marl_mrta/nav/ros_conversions.h"
 
 namespace marl_mrta {
 namespace nav {

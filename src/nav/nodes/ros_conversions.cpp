@@ -1,4 +1,4 @@
-#include "ros_conversions.h"
+#include "marl_mrta/nav/ros_conversions.h"
 
 #include <cmath>
 #include <sstream>
