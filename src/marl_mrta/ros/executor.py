@@ -120,8 +120,7 @@ class RosExecutor:
                 failure = "" if result.succeeded else result.describe()
                 robots.append(RobotOutcome(True, result.succeeded, nav_time, collisions[i], failure))
             else:
-                cut = "episode time limit" if time_limit < self.settings.goal_timeout else "goal timeout"
-                robots.append(RobotOutcome(True, False, deadline - t0, collisions[i], cut))
+                robots.append(RobotOutcome(True, False, deadline - t0, collisions[i], "goal timeout"))
         return StepOutcome(robots=robots)
 
     def finish_step(self, duration: float) -> None:
