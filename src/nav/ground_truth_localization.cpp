@@ -19,8 +19,8 @@ Transform2D inverse(const Transform2D& t) {
 
 Transform2D mapToBase(const Pose2D& truth, const Transform2D& offset) { return compose(offset, asTransform(truth)); }
 
-Transform2D mapToOdom(const Pose2D& truth, const Pose2D& odom, const Transform2D& offset) {
-  return compose(mapToBase(truth, offset), inverse(asTransform(odom)));
+Transform2D mapToOdom(const Transform2D& map_base, const Pose2D& odom) {
+  return compose(map_base, inverse(asTransform(odom)));
 }
 
 }  // namespace nav

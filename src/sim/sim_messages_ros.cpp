@@ -54,8 +54,8 @@ void fillTransform(geometry_msgs::TransformStamped& msg, const ros::Time& stamp,
 
 void fillLocalization(RobotMessages& msgs) {
   namespace conv = nav::ros_conversions;
-  const nav::Transform2D map_odom = nav::mapToOdom(conv::toPose2D(msgs.ground_truth.pose.pose),
-                                                   conv::toPose2D(msgs.odom.pose.pose), nav::Transform2D{});
+  const nav::Transform2D map_base = nav::mapToBase(conv::toPose2D(msgs.ground_truth.pose.pose), nav::Transform2D{});
+  const nav::Transform2D map_odom = nav::mapToOdom(map_base, conv::toPose2D(msgs.odom.pose.pose));
   msgs.map_odom_tf.header.stamp = msgs.ground_truth.header.stamp;
   msgs.map_odom_tf.transform.translation.x = map_odom.x;
   msgs.map_odom_tf.transform.translation.y = map_odom.y;

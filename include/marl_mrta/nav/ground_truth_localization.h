@@ -17,8 +17,8 @@ Transform2D inverse(const Transform2D& t);
 // map -> base: the true pose (map frame), moved by `offset` (fake_localization's delta_* and
 // initialpose).
 Transform2D mapToBase(const Pose2D& truth, const Transform2D& offset);
-// map -> odom from the true pose and the odometry pose (odom frame) of the same instant.
-Transform2D mapToOdom(const Pose2D& truth, const Pose2D& odom, const Transform2D& offset);
+// map -> odom from map -> base (mapToBase) and the odometry pose (odom frame) of the same instant.
+Transform2D mapToOdom(const Transform2D& map_base, const Pose2D& odom);
 
 }  // namespace nav
 }  // namespace marl_mrta

@@ -86,9 +86,8 @@ class FakeLocalization {
     }
   }
   void publish(const nav_msgs::Odometry& truth, const nav_msgs::Odometry& odom) {
-    const Pose2D true_pose = conv::toPose2D(truth.pose.pose);
-    const Transform2D map_base = nav::mapToBase(true_pose, offset_);
-    const Transform2D map_odom = nav::mapToOdom(true_pose, conv::toPose2D(odom.pose.pose), offset_);
+    const Transform2D map_base = nav::mapToBase(conv::toPose2D(truth.pose.pose), offset_);
+    const Transform2D map_odom = nav::mapToOdom(map_base, conv::toPose2D(odom.pose.pose));
     if (!static_broadcaster_ || !static_sent_ || !sameTransform(map_odom, static_map_odom_)) {
       geometry_msgs::TransformStamped tf;
       tf.header.stamp = truth.header.stamp + ros::Duration(transform_tolerance_);
