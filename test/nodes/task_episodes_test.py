@@ -94,6 +94,13 @@ class TaskEpisodesTest(unittest.TestCase):
         with open(out) as f:
             return json.load(f)
 
+    def test_the_manager_follows_the_lock_step_answers(self):
+        # One arena: the clock is paused between steps, and a step starts only on a tick every
+        # controller has answered; that is what makes the next test's episodes repeat.
+        import rosgraph
+        _, subscriptions, _ = rosgraph.Master("/task_episodes_test").getSystemState()
+        self.assertIn("/rl_task_allocation_manager", dict(subscriptions).get("/simulator/lockstep_ack", []))
+
     def test_exact_episodes_repeat_to_the_tick(self):
         # Runs first (name order): the graph's first episode, started from launch, must equal the
         # next one, started from a reset after driving (lock-step: no dependence on history or load).

@@ -75,6 +75,17 @@ class TrainRosTest(unittest.TestCase):
         policy = load_policy(os.path.join(run, "actor.pt"))
         self.assertEqual(policy.action_mask, "logic")
 
+    def test_arena_managers_leave_the_lock_step_answers_to_the_simulator(self):
+        # With several arenas the clock is shared and never paused: a manager reads from /clock
+        # how far the controllers have got (sim_link.SimulatorLink.tracks_answers), instead of
+        # receiving every robot's answer at every tick. The simulator still takes them.
+        import rosgraph
+        _, subscriptions, _ = rosgraph.Master("/train_ros_test").getSystemState()
+        takers = dict(subscriptions).get("/simulator/lockstep_ack", [])
+        self.assertIn("/simulator", takers)
+        for arena in (0, 1):
+            self.assertNotIn(f"/arena_{arena}/rl_task_allocation_manager", takers)
+
     def test_b_killed_run_resumes_from_its_checkpoint(self):
         run = os.path.join(tempfile.mkdtemp(prefix="train_ros_resume_"), "run")
         command = [rl_manager(), "train", "--backend", "ros", "--arenas", "2", "--scenario", SCENARIO, "--out", run,

@@ -81,7 +81,6 @@ class SimulatorLink:
         for i, ns in enumerate(self.robots):
             rospy.Subscriber("/" + ns + "/base_pose_ground_truth", Odometry, self._on_truth, i, queue_size=5,
                              tcp_nodelay=True)
-        rospy.Subscriber(SIMULATOR + "/lockstep_ack", LockstepAck, self._on_ack, queue_size=100, tcp_nodelay=True)
         rospy.Subscriber(SIMULATOR + "/collisions", CollisionEvent, self._on_collision, queue_size=100)
 
     # ------------------------------------------------------------------ start-up
@@ -104,7 +103,19 @@ class SimulatorLink:
             raise SimulatorLost(f"the simulator has no robot {', '.join(unknown)} (it simulates {', '.join(known)}; "
                                 f"its `robots` must match the scenario)")
         self.config = config
+        if self.tracks_answers:
+            rospy.Subscriber(SIMULATOR + "/lockstep_ack", LockstepAck, self._on_ack, queue_size=100,
+                             tcp_nodelay=True)
         return config
+
+    @property
+    def tracks_answers(self) -> bool:
+        """Whether this link follows the controllers' lock-step answers. With one arena it must:
+        the clock is paused, and a step may start only once every controller has seen the tick.
+        With several arenas the clock runs on, and the simulator steps past tick T only once every
+        controller has answered it, so /clock one tick later says the same; the answers, every
+        robot's of every arena at every tick, would only cost this node time."""
+        return self.config is not None and self.config.arenas == 1
 
     # ------------------------------------------------------------------ services
 
@@ -132,12 +143,16 @@ class SimulatorLink:
 
     def has_state(self, tick: int, stamp: float) -> bool:
         """Every robot's ground truth of `stamp` has arrived and, in lock-step, every controller
-        has answered `tick` (so it has seen everything up to it)."""
+        has answered `tick` (so it has seen everything up to it): told by the answers themselves
+        with one arena, by /clock one tick past `stamp` with several (tracks_answers)."""
         config = self.config
+        if config is not None and config.lockstep and not self.tracks_answers \
+                and rospy.get_time() < stamp + 1.0 / config.physics_rate - 1e-9:
+            return False
         with self._lock:
             return (all(t is not None and t[0] >= stamp - 1e-9 for t in self._truth)
                     and all(self._acked[i] >= tick for i, ns in enumerate(self.robots)
-                            if config is not None and config.answers_lockstep(ns)))
+                            if self.tracks_answers and config.answers_lockstep(ns)))
 
     def wait_caught_up(self, tick: int, stamp: float) -> None:
         """Waits until has_state(tick, stamp)."""
@@ -152,7 +167,7 @@ class SimulatorLink:
         config = self.config
         with self._lock:
             silent = [ns for i, ns in enumerate(self.robots)
-                      if config is not None and config.answers_lockstep(ns) and self._acked[i] < tick]
+                      if self.tracks_answers and config.answers_lockstep(ns) and self._acked[i] < tick]
             no_truth = [ns for i, ns in enumerate(self.robots)
                         if stamp is not None and (self._truth[i] is None or self._truth[i][0] < stamp - 1e-9)]
         parts = []
@@ -160,6 +175,8 @@ class SimulatorLink:
             parts.append("no lock-step answer from the controller (move_base) of " + ", ".join(silent))
         if no_truth:
             parts.append("no ground truth from the simulator for " + ", ".join(no_truth))
+        if config is not None and config.lockstep and not self.tracks_answers:
+            parts.append("the simulator's log names the controllers it waits for")
         return "; ".join(parts) or "every robot answered"
 
     def last_answered(self) -> int:
