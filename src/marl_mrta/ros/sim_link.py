@@ -113,8 +113,9 @@ class SimulatorLink:
         """Whether this link follows the controllers' lock-step answers. With one arena it must:
         the clock is paused, and a step may start only once every controller has seen the tick.
         With several arenas the clock runs on, and the simulator steps past tick T only once every
-        controller has answered it, so /clock one tick later says the same; the answers, every
-        robot's of every arena at every tick, would only cost this node time."""
+        controller has answered it (or said it needs nothing before a later tick), so /clock one
+        tick later says the same; the answers, every robot's of every arena at every tick, would
+        only cost this node time."""
         return self.config is not None and self.config.arenas == 1
 
     # ------------------------------------------------------------------ services
