@@ -18,6 +18,7 @@ import threading
 import time
 import unittest
 
+import rosgraph
 import rospy
 import rostest
 from geometry_msgs.msg import PoseStamped
@@ -96,8 +97,7 @@ class TaskEpisodesTest(unittest.TestCase):
 
     def test_the_manager_follows_the_lock_step_answers(self):
         # One arena: the clock is paused between steps, and a step starts only on a tick every
-        # controller has answered; that is what makes the next test's episodes repeat.
-        import rosgraph
+        # controller has answered; that is what makes test_exact_episodes_repeat_to_the_tick hold.
         _, subscriptions, _ = rosgraph.Master("/task_episodes_test").getSystemState()
         self.assertIn("/rl_task_allocation_manager", dict(subscriptions).get("/simulator/lockstep_ack", []))
 

@@ -20,6 +20,7 @@ import time
 import unittest
 
 import roslib.packages
+import rosgraph
 import rospy
 import rostest
 import torch
@@ -79,7 +80,6 @@ class TrainRosTest(unittest.TestCase):
         # With several arenas the clock is shared and never paused: a manager reads from /clock
         # how far the controllers have got (sim_link.SimulatorLink.tracks_answers), instead of
         # receiving every robot's answer at every tick. The simulator still takes them.
-        import rosgraph
         _, subscriptions, _ = rosgraph.Master("/train_ros_test").getSystemState()
         takers = dict(subscriptions).get("/simulator/lockstep_ack", [])
         self.assertIn("/simulator", takers)

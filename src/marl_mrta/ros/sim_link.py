@@ -118,6 +118,11 @@ class SimulatorLink:
         only cost this node time."""
         return self.config is not None and self.config.arenas == 1
 
+    @property
+    def _answers_from_clock(self) -> bool:
+        """Lock-step with several arenas: /clock stands for the answers (tracks_answers)."""
+        return self.config is not None and self.config.lockstep and not self.tracks_answers
+
     # ------------------------------------------------------------------ services
 
     def pause(self, paused: bool = True) -> None:
@@ -147,8 +152,7 @@ class SimulatorLink:
         has answered `tick` (so it has seen everything up to it): told by the answers themselves
         with one arena, by /clock one tick past `stamp` with several (tracks_answers)."""
         config = self.config
-        if config is not None and config.lockstep and not self.tracks_answers \
-                and rospy.get_time() < stamp + 1.0 / config.physics_rate - 1e-9:
+        if self._answers_from_clock and rospy.get_time() < stamp + 1.0 / config.physics_rate - 1e-9:
             return False
         with self._lock:
             return (all(t is not None and t[0] >= stamp - 1e-9 for t in self._truth)
@@ -176,13 +180,9 @@ class SimulatorLink:
             parts.append("no lock-step answer from the controller (move_base) of " + ", ".join(silent))
         if no_truth:
             parts.append("no ground truth from the simulator for " + ", ".join(no_truth))
-        if config is not None and config.lockstep and not self.tracks_answers:
+        if self._answers_from_clock:
             parts.append("the simulator's log names the controllers it waits for")
         return "; ".join(parts) or "every robot answered"
-
-    def last_answered(self) -> int:
-        with self._lock:
-            return min(self._acked) if self._acked else -1
 
     def poses(self) -> List[Optional[Tuple[float, float, float]]]:
         with self._lock:
