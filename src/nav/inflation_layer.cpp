@@ -50,20 +50,6 @@ void InflationLayer::updateBounds(const Pose2D& /*robot*/, Bounds& bounds) {
   bounds.touch(1e20, 1e20);
 }
 
-void InflationLayer::enqueue(unsigned index, unsigned x, unsigned y, unsigned src_x, unsigned src_y) {
-  if (seen_[index]) return;
-  if (static_cast<int>(x) < search_min_x_ || static_cast<int>(x) >= search_max_x_ ||
-      static_cast<int>(y) < search_min_y_ || static_cast<int>(y) >= search_max_y_) {
-    return;
-  }
-  const unsigned dx = x > src_x ? x - src_x : src_x - x;
-  const unsigned dy = y > src_y ? y - src_y : src_y - y;
-  if (dx > cell_inflation_radius_ || dy > cell_inflation_radius_) return;
-  const unsigned sq = dx * dx + dy * dy;
-  if (sq > cell_inflation_radius_ * cell_inflation_radius_) return;  // beyond the inflation radius
-  bins_[sq].push_back({index, x, y, src_x, src_y});
-}
-
 void InflationLayer::reinflate(const CellWindow& region, unsigned size_x, unsigned size_y) {
   // Obstacles up to one inflation radius outside the region still reach into it.
   const int r = static_cast<int>(cell_inflation_radius_);
@@ -73,9 +59,11 @@ void InflationLayer::reinflate(const CellWindow& region, unsigned size_x, unsign
   search_max_y_ = std::min(static_cast<int>(size_y), region.max_y + r);
   for (int y = search_min_y_; y < search_max_y_; ++y) {
     const unsigned row = static_cast<unsigned>(y) * size_x;
-    std::fill(seen_.begin() + row + search_min_x_, seen_.begin() + row + search_max_x_, 0);
+    std::fill(best_sq_.begin() + row + search_min_x_, best_sq_.begin() + row + search_max_x_, kUnqueued);
     for (int x = search_min_x_; x < search_max_x_; ++x) {
-      if (lethal_[row + x]) bins_[0].push_back({row + x, unsigned(x), unsigned(y), unsigned(x), unsigned(y)});
+      if (!lethal_[row + x]) continue;
+      best_sq_[row + x] = 0;
+      bins_[0].push_back({row + x, unsigned(x), unsigned(y), unsigned(x), unsigned(y)});
     }
   }
   for (int y = region.min_y; y < region.max_y; ++y) {
@@ -83,24 +71,46 @@ void InflationLayer::reinflate(const CellWindow& region, unsigned size_x, unsign
     std::fill(field_.begin() + row + region.min_x, field_.begin() + row + region.max_x, 0);
   }
   const unsigned table = cell_inflation_radius_ + 2;
-  for (size_t bin = 0; bin < bins_.size(); ++bin) {
-    // Cells appended to later bins while this one is processed keep the distance order.
-    for (size_t k = 0; k < bins_[bin].size(); ++k) {
-      const CellData cell = bins_[bin][k];
-      if (seen_[cell.index]) continue;
-      seen_[cell.index] = 1;
-      if (static_cast<int>(cell.x) >= region.min_x && static_cast<int>(cell.x) < region.max_x &&
-          static_cast<int>(cell.y) >= region.min_y && static_cast<int>(cell.y) < region.max_y) {
+  const unsigned radius = cell_inflation_radius_, radius_sq = radius * radius;
+  const int min_x = search_min_x_, min_y = search_min_y_, max_x = search_max_x_, max_y = search_max_y_;
+  // Raw pointers: the queues' growth cannot move these arrays, so they need no reloading.
+  uint32_t* const best_sq = best_sq_.data();
+  uint8_t* const field = field_.data();
+  const uint8_t* const costs_by_offset = cached_costs_.data();
+  std::vector<CellData>* const bins = bins_.data();
+  const size_t n_bins = bins_.size();
+  unsigned bin = 0;
+  // Cells are taken bin by bin (squared distance to the source they inherit), each bin in the
+  // order it was filled; a cell takes its first entry in the lowest bin. So an entry that
+  // cannot come first is never queued: one at or above the cell's best queued distance, or
+  // one below the bin being taken (costmap_2d drops those as well).
+  auto enqueue = [&](unsigned index, unsigned x, unsigned y, unsigned src_x, unsigned src_y) {
+    const unsigned dx = x > src_x ? x - src_x : src_x - x;
+    const unsigned dy = y > src_y ? y - src_y : src_y - y;
+    if (dx > radius || dy > radius) return;
+    const unsigned sq = dx * dx + dy * dy;
+    if (sq > radius_sq || sq >= best_sq[index] || sq < bin) return;
+    best_sq[index] = sq;
+    bins[sq].push_back({index, x, y, src_x, src_y});
+  };
+  for (; bin < n_bins; ++bin) {
+    // Cells appended to this bin while it is taken keep the distance order.
+    std::vector<CellData>& queue = bins[bin];
+    for (size_t k = 0; k < queue.size(); ++k) {
+      const CellData cell = queue[k];
+      if (best_sq[cell.index] != bin) continue;  // the cell has an entry in a lower bin
+      const int x = static_cast<int>(cell.x), y = static_cast<int>(cell.y);
+      if (x >= region.min_x && x < region.max_x && y >= region.min_y && y < region.max_y) {
         const unsigned dx = cell.x > cell.src_x ? cell.x - cell.src_x : cell.src_x - cell.x;
         const unsigned dy = cell.y > cell.src_y ? cell.y - cell.src_y : cell.src_y - cell.y;
-        field_[cell.index] = cached_costs_[dx * table + dy];
+        field[cell.index] = costs_by_offset[dx * table + dy];
       }
-      if (cell.x > 0) enqueue(cell.index - 1, cell.x - 1, cell.y, cell.src_x, cell.src_y);
-      if (cell.y > 0) enqueue(cell.index - size_x, cell.x, cell.y - 1, cell.src_x, cell.src_y);
-      if (cell.x + 1 < size_x) enqueue(cell.index + 1, cell.x + 1, cell.y, cell.src_x, cell.src_y);
-      if (cell.y + 1 < size_y) enqueue(cell.index + size_x, cell.x, cell.y + 1, cell.src_x, cell.src_y);
+      if (x > min_x) enqueue(cell.index - 1, cell.x - 1, cell.y, cell.src_x, cell.src_y);
+      if (y > min_y) enqueue(cell.index - size_x, cell.x, cell.y - 1, cell.src_x, cell.src_y);
+      if (x + 1 < max_x) enqueue(cell.index + 1, cell.x + 1, cell.y, cell.src_x, cell.src_y);
+      if (y + 1 < max_y) enqueue(cell.index + size_x, cell.x, cell.y + 1, cell.src_x, cell.src_y);
     }
-    bins_[bin].clear();
+    queue.clear();
   }
 }
 
@@ -130,7 +140,7 @@ void InflationLayer::updateCosts(CostGrid& master, const CellWindow& window) {
   std::vector<uint8_t>& costs = master.cells();
   CellWindow changed{static_cast<int>(size_x), static_cast<int>(size_y), 0, 0};
   if (full) {
-    seen_.assign(cells, 0);
+    best_sq_.assign(cells, kUnqueued);
     // Outside the window the master holds last update's result: the best guess of what is beneath.
     beneath_ = costs;
     lethal_.assign(cells, 0);

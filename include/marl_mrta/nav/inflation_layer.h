@@ -40,7 +40,6 @@ class InflationLayer : public Layer {
     unsigned index, x, y, src_x, src_y;
   };
   void computeCaches();
-  void enqueue(unsigned index, unsigned x, unsigned y, unsigned src_x, unsigned src_y);
   // Recomputes field_ inside `region` from the lethal cells within one radius of it.
   void reinflate(const CellWindow& region, unsigned size_x, unsigned size_y);
   // Master cells of `area` from the costs beneath and the field.
@@ -56,10 +55,13 @@ class InflationLayer : public Layer {
   std::vector<uint8_t> beneath_;  // master costs before inflation
   std::vector<uint8_t> lethal_;   // 1 where beneath_ is lethal
   std::vector<uint8_t> field_;    // inflation cost (0 beyond the radius)
-  // Search window of reinflate() (seen_ is clear outside it).
+  // Search window of reinflate().
   int search_min_x_ = 0, search_min_y_ = 0, search_max_x_ = 0, search_max_y_ = 0;
   std::vector<uint8_t> cached_costs_;  // by (|dx|, |dy|), (radius + 2)^2 entries
-  std::vector<char> seen_;
+  // Per cell of the search window: the lowest squared distance it was queued at (a cell is
+  // taken from that bin, so later entries at or above it are never queued).
+  static constexpr uint32_t kUnqueued = 0xFFFFFFFF;
+  std::vector<uint32_t> best_sq_;
   // Bins by squared cell distance: exact distance order without a priority queue.
   std::vector<std::vector<CellData>> bins_;
 };
