@@ -7,6 +7,10 @@
 namespace marl_mrta {
 namespace nav {
 
+namespace {
+inline unsigned absDiff(unsigned a, unsigned b) { return a > b ? a - b : b - a; }
+}  // namespace
+
 InflationLayer::InflationLayer(std::string name, const InflationLayerConfig& config)
     : Layer(std::move(name)), config_(config) {}
 
@@ -51,16 +55,16 @@ void InflationLayer::updateBounds(const Pose2D& /*robot*/, Bounds& bounds) {
 }
 
 void InflationLayer::reinflate(const CellWindow& region, unsigned size_x, unsigned size_y) {
-  // Obstacles up to one inflation radius outside the region still reach into it.
+  // Obstacles up to one inflation radius outside the region still reach into it: the search
+  // window is the region widened by the radius.
   const int r = static_cast<int>(cell_inflation_radius_);
-  search_min_x_ = std::max(0, region.min_x - r);
-  search_min_y_ = std::max(0, region.min_y - r);
-  search_max_x_ = std::min(static_cast<int>(size_x), region.max_x + r);
-  search_max_y_ = std::min(static_cast<int>(size_y), region.max_y + r);
-  for (int y = search_min_y_; y < search_max_y_; ++y) {
+  const int min_x = std::max(0, region.min_x - r), min_y = std::max(0, region.min_y - r);
+  const int max_x = std::min(static_cast<int>(size_x), region.max_x + r);
+  const int max_y = std::min(static_cast<int>(size_y), region.max_y + r);
+  for (int y = min_y; y < max_y; ++y) {
     const unsigned row = static_cast<unsigned>(y) * size_x;
-    std::fill(best_sq_.begin() + row + search_min_x_, best_sq_.begin() + row + search_max_x_, kUnqueued);
-    for (int x = search_min_x_; x < search_max_x_; ++x) {
+    std::fill(best_sq_.begin() + row + min_x, best_sq_.begin() + row + max_x, kUnqueued);
+    for (int x = min_x; x < max_x; ++x) {
       if (!lethal_[row + x]) continue;
       best_sq_[row + x] = 0;
       bins_[0].push_back({row + x, unsigned(x), unsigned(y), unsigned(x), unsigned(y)});
@@ -72,7 +76,6 @@ void InflationLayer::reinflate(const CellWindow& region, unsigned size_x, unsign
   }
   const unsigned table = cell_inflation_radius_ + 2;
   const unsigned radius = cell_inflation_radius_, radius_sq = radius * radius;
-  const int min_x = search_min_x_, min_y = search_min_y_, max_x = search_max_x_, max_y = search_max_y_;
   // Raw pointers: the queues' growth cannot move these arrays, so they need no reloading.
   uint32_t* const best_sq = best_sq_.data();
   uint8_t* const field = field_.data();
@@ -85,8 +88,7 @@ void InflationLayer::reinflate(const CellWindow& region, unsigned size_x, unsign
   // cannot come first is never queued: one at or above the cell's best queued distance, or
   // one below the bin being taken (costmap_2d drops those as well).
   auto enqueue = [&](unsigned index, unsigned x, unsigned y, unsigned src_x, unsigned src_y) {
-    const unsigned dx = x > src_x ? x - src_x : src_x - x;
-    const unsigned dy = y > src_y ? y - src_y : src_y - y;
+    const unsigned dx = absDiff(x, src_x), dy = absDiff(y, src_y);
     if (dx > radius || dy > radius) return;
     const unsigned sq = dx * dx + dy * dy;
     if (sq > radius_sq || sq >= best_sq[index] || sq < bin) return;
@@ -101,9 +103,7 @@ void InflationLayer::reinflate(const CellWindow& region, unsigned size_x, unsign
       if (best_sq[cell.index] != bin) continue;  // the cell has an entry in a lower bin
       const int x = static_cast<int>(cell.x), y = static_cast<int>(cell.y);
       if (x >= region.min_x && x < region.max_x && y >= region.min_y && y < region.max_y) {
-        const unsigned dx = cell.x > cell.src_x ? cell.x - cell.src_x : cell.src_x - cell.x;
-        const unsigned dy = cell.y > cell.src_y ? cell.y - cell.src_y : cell.src_y - cell.y;
-        field[cell.index] = costs_by_offset[dx * table + dy];
+        field[cell.index] = costs_by_offset[absDiff(cell.x, cell.src_x) * table + absDiff(cell.y, cell.src_y)];
       }
       if (x > min_x) enqueue(cell.index - 1, cell.x - 1, cell.y, cell.src_x, cell.src_y);
       if (y > min_y) enqueue(cell.index - size_x, cell.x, cell.y - 1, cell.src_x, cell.src_y);

@@ -55,11 +55,9 @@ class InflationLayer : public Layer {
   std::vector<uint8_t> beneath_;  // master costs before inflation
   std::vector<uint8_t> lethal_;   // 1 where beneath_ is lethal
   std::vector<uint8_t> field_;    // inflation cost (0 beyond the radius)
-  // Search window of reinflate().
-  int search_min_x_ = 0, search_min_y_ = 0, search_max_x_ = 0, search_max_y_ = 0;
   std::vector<uint8_t> cached_costs_;  // by (|dx|, |dy|), (radius + 2)^2 entries
-  // Per cell of the search window: the lowest squared distance it was queued at (a cell is
-  // taken from that bin, so later entries at or above it are never queued).
+  // Per cell of reinflate()'s search window: the lowest squared distance it was queued at
+  // (the cell is taken from that bin, so later entries at or above it are never queued).
   static constexpr uint32_t kUnqueued = 0xFFFFFFFF;
   std::vector<uint32_t> best_sq_;
   // Bins by squared cell distance: exact distance order without a priority queue.
