@@ -83,6 +83,11 @@ class RotateRecovery : public RecoveryBehavior {
   bool got_180_ = false;
 };
 
+// Whether `now` is later than `since` + `duration`. move_base compares ros::Time in whole
+// nanoseconds; in seconds as doubles a tie (the tick that ends a patience exactly) would come
+// out either way depending on the rounding of the absolute times, i.e. on when the run started.
+bool isPast(double now, double since, double duration) { return now > since + duration + 1e-9; }
+
 }  // namespace
 
 const char* stateName(MoveBaseState state) {
@@ -185,7 +190,7 @@ void MoveBaseCore::runPlanner(const CycleInput& in, CycleOutput& out) {
   last_failure_ = result;
   if (state_ != MoveBaseState::kPlanning) return;  // keep following the previous plan
   ++planning_retries_;
-  const bool out_of_patience = in.now > last_valid_plan_ + config_.planner_patience;
+  const bool out_of_patience = isPast(in.now, last_valid_plan_, config_.planner_patience);
   const bool out_of_retries = config_.max_planning_retries >= 0 &&
                               planning_retries_ > static_cast<unsigned>(config_.max_planning_retries);
   if ((out_of_patience || out_of_retries) && result.status == PlanResult::Status::kGoalInObstacle &&
@@ -247,7 +252,7 @@ CycleOutput MoveBaseCore::runCycle(const CycleInput& in) {
         out.message = "Goal reached.";
         break;
       }
-      if (config_.oscillation_timeout > 0.0 && last_oscillation_reset_ + config_.oscillation_timeout < in.now) {
+      if (config_.oscillation_timeout > 0.0 && isPast(in.now, last_oscillation_reset_, config_.oscillation_timeout)) {
         out.publish_command = true;
         out.command = {};
         state_ = MoveBaseState::kClearing;
@@ -263,7 +268,7 @@ CycleOutput MoveBaseCore::runCycle(const CycleInput& in) {
         out.command = control.command;
         out.local_plan = control.local_plan;
         if (trigger_ == Trigger::kControlling) recovery_index_ = 0;
-      } else if (in.now > last_valid_control_ + config_.controller_patience) {
+      } else if (isPast(in.now, last_valid_control_, config_.controller_patience)) {
         out.publish_command = true;
         out.command = {};
         state_ = MoveBaseState::kClearing;

@@ -220,7 +220,7 @@ void ObstacleLayer::reset() {
 bool ObstacleLayer::isCurrent(double now) const {
   for (size_t s = 0; s < buffers_.size(); ++s) {
     const double rate = config_.sources[s].expected_update_rate;
-    if (rate > 0.0 && (buffers_[s].last_arrival < 0.0 || now - buffers_[s].last_arrival > rate)) return false;
+    if (rate > 0.0 && (buffers_[s].last_arrival < 0.0 || now - buffers_[s].last_arrival > rate + 1e-9)) return false;
   }
   return true;
 }

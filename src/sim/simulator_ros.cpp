@@ -84,6 +84,7 @@ void SimulatorRos::advertise(ros::NodeHandle& nh, ros::NodeHandle& private_nh) {
   reset_srv_ = private_nh.advertiseService("reset", &SimulatorRos::onReset, this);
   pause_srv_ = private_nh.advertiseService("pause", &SimulatorRos::onPause, this);
   step_srv_ = private_nh.advertiseService("step", &SimulatorRos::onStep, this);
+  run_until_srv_ = private_nh.advertiseService("run_until", &SimulatorRos::onRunUntil, this);
 }
 
 void SimulatorRos::onCmdVel(size_t robot, const geometry_msgs::Twist::ConstPtr& msg) {
@@ -120,12 +121,17 @@ bool SimulatorRos::onReset(marl_mrta::ResetSim::Request& req, marl_mrta::ResetSi
   return true;
 }
 
-bool SimulatorRos::onPause(std_srvs::SetBool::Request& req, std_srvs::SetBool::Response& res) {
+void SimulatorRos::setPaused(bool paused) {
   const ros::WallTime now = ros::WallTime::now();
-  if (req.data && !paused_) timing_.paused_since = now;
-  if (!req.data && paused_) timing_.paused += (now - timing_.paused_since).toSec();
-  paused_ = req.data;
+  if (paused && !paused_) timing_.paused_since = now;
+  if (!paused && paused_) timing_.paused += (now - timing_.paused_since).toSec();
+  paused_ = paused;
   pacer_->restart();
+}
+
+bool SimulatorRos::onPause(std_srvs::SetBool::Request& req, std_srvs::SetBool::Response& res) {
+  setPaused(req.data);
+  run_until_tick_ = 0;
   res.success = true;
   res.message = (paused_ ? "paused at tick " : "running from tick ") + std::to_string(world_->tick());
   return true;
@@ -135,6 +141,14 @@ bool SimulatorRos::onStep(marl_mrta::StepSim::Request& req, marl_mrta::StepSim::
   for (uint32_t i = 0; i < req.ticks; ++i) stepAndPublish();
   if (paused_) timing_.paused_ticks += req.ticks;
   pacer_->restart();
+  res.tick = world_->tick();
+  res.stamp = stamp();
+  return true;
+}
+
+bool SimulatorRos::onRunUntil(marl_mrta::RunSim::Request& req, marl_mrta::RunSim::Response& res) {
+  run_until_tick_ = req.until_tick;
+  setPaused(req.until_tick <= world_->tick());
   res.tick = world_->tick();
   res.stamp = stamp();
   return true;
@@ -224,6 +238,10 @@ int SimulatorRos::run() {
   while (ros::ok()) {
     queue.callAvailable();
     if (config_.stop_after > 0.0 && world_->time() >= config_.stop_after - 1e-9) break;
+    if (!paused_ && run_until_tick_ > 0 && world_->tick() >= run_until_tick_) {
+      setPaused(true);  // on ~run_until's tick, before any later one
+      run_until_tick_ = 0;
+    }
     if (paused_) {
       queue.callAvailable(ros::WallDuration(0.05));
       continue;

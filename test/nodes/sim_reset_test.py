@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""rostest: /simulator/reset (all, one arena, given poses, refused poses), pause and step.
+"""rostest: /simulator/reset (all, one arena, given poses, refused poses), pause, step and run_until.
 
 Runs against ``sim.launch robots:=2 arenas:=2``: drives one robot of each arena away from
 its start pose, then checks what each reset brings back, from the ground truth and odometry
@@ -17,7 +17,7 @@ from nav_msgs.msg import Odometry
 from rosgraph_msgs.msg import Clock
 from std_srvs.srv import SetBool
 
-from marl_mrta.srv import ResetSim, StepSim
+from marl_mrta.srv import ResetSim, RunSim, StepSim
 
 ROBOTS = ("arena_0/tb3_0", "arena_0/tb3_1", "arena_1/tb3_0", "arena_1/tb3_1")
 START = {"tb3_0": (0.5, 0.5, 0.0), "tb3_1": (0.5, 4.5, 0.0)}  # config/sim.yaml
@@ -59,11 +59,12 @@ class ResetTest(unittest.TestCase):
         cls.truth = Latest("base_pose_ground_truth")
         cls.odom = Latest("odom")
         cls.cmd = {ns: rospy.Publisher("/%s/cmd_vel" % ns, Twist, queue_size=10) for ns in ROBOTS}
-        for service in ("reset", "pause", "step"):
+        for service in ("reset", "pause", "step", "run_until"):
             rospy.wait_for_service("/simulator/" + service, timeout=30)
         cls.reset = rospy.ServiceProxy("/simulator/reset", ResetSim)
         cls.pause = rospy.ServiceProxy("/simulator/pause", SetBool)
         cls.step = rospy.ServiceProxy("/simulator/step", StepSim)
+        cls.run_until = rospy.ServiceProxy("/simulator/run_until", RunSim)
 
     def drive(self, robots, seconds=1.5):
         command = Twist()
@@ -154,6 +155,26 @@ class ResetTest(unittest.TestCase):
         self.assertTrue(self.pause(False).success)
         rospy.rostime.wallsleep(0.5)
         self.assertGreater(rospy.Time.now(), stepped.stamp)
+
+    def test_4_run_until_pauses_on_its_tick(self):
+        self.assertTrue(self.pause(True).success)
+        start = self.step(ticks=0)
+        target = start.tick + 15
+        taken = self.run_until(until_tick=target)
+        self.assertEqual(taken.tick, start.tick)
+        rate = float(rospy.get_param("/simulator/physics_rate"))
+        at_target = start.stamp + rospy.Duration(0, int(round(15 * 1e9 / rate)))
+        self.wait_for_clock(at_target)
+        rospy.rostime.wallsleep(0.5)   # at rtf 2, ten more ticks if it ran on
+        self.assertEqual(self.step(ticks=0).tick, target, "the simulator did not pause on the tick asked")
+        self.assertEqual(rospy.Time.now(), at_target)
+        # A tick already reached keeps it paused; /simulator/pause false resumes without a limit.
+        self.assertEqual(self.run_until(until_tick=target - 5).tick, target)
+        rospy.rostime.wallsleep(0.3)
+        self.assertEqual(self.step(ticks=0).tick, target)
+        self.assertTrue(self.pause(False).success)
+        rospy.rostime.wallsleep(0.5)
+        self.assertGreater(self.step(ticks=0).tick, target)
 
 
 if __name__ == "__main__":

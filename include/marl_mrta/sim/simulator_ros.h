@@ -12,6 +12,7 @@
 #include <geometry_msgs/Twist.h>
 #include <marl_mrta/LockstepAck.h>
 #include <marl_mrta/ResetSim.h>
+#include <marl_mrta/RunSim.h>
 #include <marl_mrta/SimTick.h>
 #include <marl_mrta/StepSim.h>
 #include <std_srvs/SetBool.h>
@@ -53,6 +54,8 @@ class SimulatorRos {
   bool onReset(marl_mrta::ResetSim::Request& req, marl_mrta::ResetSim::Response& res);
   bool onPause(std_srvs::SetBool::Request& req, std_srvs::SetBool::Response& res);
   bool onStep(marl_mrta::StepSim::Request& req, marl_mrta::StepSim::Response& res);
+  bool onRunUntil(marl_mrta::RunSim::Request& req, marl_mrta::RunSim::Response& res);
+  void setPaused(bool paused);
 
   void stepAndPublish();
   void publishState(const StepReport& report, bool initial);
@@ -68,13 +71,14 @@ class SimulatorRos {
   std::vector<RobotIo> robots_;
   ros::Publisher clock_pub_, tick_pub_, collisions_pub_;
   ros::Subscriber lockstep_ack_sub_;
-  ros::ServiceServer reset_srv_, pause_srv_, step_srv_;
+  ros::ServiceServer reset_srv_, pause_srv_, step_srv_, run_until_srv_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
   std::vector<geometry_msgs::TransformStamped> transforms_;
   marl_mrta::SimTick last_tick_;  // re-sent while lock-step answers are missing
   std::unique_ptr<LockstepGate> lockstep_;
   std::unique_ptr<RealTimePacer> pacer_;
   bool paused_ = false;
+  uint64_t run_until_tick_ = 0;  // ~run_until: pause on reaching this tick (0: no limit)
   Timing timing_;
 };
 

@@ -7,8 +7,10 @@ from /simulator/collisions, poses from ground truth.
 
 Between steps the simulator is paused, so the time this node needs to think never shows in
 the world. A step starts on a tick aligned to `align_period` after every controller has
-caught up, with every goal accepted by its move_base before time runs: in lock-step the
-same joint actions then give the same robot motions whatever the machine's load.
+caught up, with every goal accepted by its move_base before time runs, and the simulator
+pauses by itself on the tick of the step's deadline: in lock-step the same joint actions then
+give the same robot motions whatever the machine's load (a pause requested when the deadline
+is seen would land a few ticks later, differently from run to run, with robots still moving).
 
 With several arenas in one simulator (parallel training) the clock is shared: another
 arena's manager may be driving its robots at any time, so no manager pauses or steps the
@@ -100,9 +102,11 @@ class RosExecutor:
             wait_wall(lambda: all(self.bases[i].accepted for i in pending), self.settings.simulator_lost_after,
                       lambda: "move_base of " + ", ".join(self.namespaces[i] for i in pending
                                                           if not self.bases[i].accepted) + " did not take its goal")
-            self._pause(False)
+            self._run_until(deadline)
             self.clock.wait_until(lambda: all(self.bases[i].result is not None for i in pending), deadline)
             self._pause(True)
+            self.sim.wait_caught_up(*self.sim.step(0))   # every controller has seen the last tick
+            self._await_deadline_results(pending)
             self._cancel_running()
             end = min(self._settle(align=False), deadline)
         except SimulatorLost as lost:
@@ -150,6 +154,24 @@ class RosExecutor:
     def _pause(self, paused: bool) -> None:
         if not self.shared_clock:
             self.sim.pause(paused)
+
+    def _run_until(self, stamp: float) -> None:
+        """Lets sim time run (lock-step as configured) to the first tick at or after `stamp`,
+        where the simulator pauses by itself; on a shared clock time runs anyway."""
+        if not self.shared_clock:
+            self.sim.run_until(int(math.ceil(stamp * self.sim.config.physics_rate - 1e-6)))
+
+    def _await_deadline_results(self, pending: Sequence[int]) -> None:
+        """A goal that ended on the last tick: move_base sent its result before its answer to
+        that tick, but on another connection, which may be read later. Every controller has
+        answered by now, so a result still missing is either in flight or there is none: a short
+        wait tells them apart."""
+        missing = [i for i in pending if self.bases[i].result is None]
+        if missing and not self.shared_clock:   # (runs on a shared clock do not repeat anyway)
+            try:
+                wait_wall(lambda: all(self.bases[i].result is not None for i in missing), 0.1, "results")
+            except SimulatorLost:
+                pass   # the goals are still running: cut by the deadline
 
     def _advance(self, ticks: int) -> Tuple[int, float]:
         """`ticks` more ticks: stepped when paused, waited for on a shared clock. Returns the

@@ -44,7 +44,7 @@ class SimClock:
             if predicate():
                 return True
             sim_now = self.now()
-            if sim_now >= deadline_sim:
+            if sim_now >= deadline_sim - 1e-9:   # a tick's stamp may round just below the sum
                 return False
             if sim_now != last_sim:
                 last_sim, last_progress_wall = sim_now, time.monotonic()

@@ -17,7 +17,7 @@ from nav_msgs.msg import Odometry
 from std_srvs.srv import SetBool
 
 from marl_mrta.msg import CollisionEvent, LockstepAck
-from marl_mrta.srv import ResetSim, ResetSimRequest, StepSim
+from marl_mrta.srv import ResetSim, ResetSimRequest, RunSim, StepSim
 
 from .sim_clock import SimulatorLost, call_bounded, wait_wall
 
@@ -78,6 +78,7 @@ class SimulatorLink:
         self._reset = rospy.ServiceProxy(SIMULATOR + "/reset", ResetSim)
         self._pause = rospy.ServiceProxy(SIMULATOR + "/pause", SetBool)
         self._step = rospy.ServiceProxy(SIMULATOR + "/step", StepSim)
+        self._run_until = rospy.ServiceProxy(SIMULATOR + "/run_until", RunSim)
         for i, ns in enumerate(self.robots):
             rospy.Subscriber("/" + ns + "/base_pose_ground_truth", Odometry, self._on_truth, i, queue_size=5,
                              tcp_nodelay=True)
@@ -87,7 +88,7 @@ class SimulatorLink:
 
     def wait_ready(self, timeout_wall: float) -> SimulatorConfig:
         """Waits for the simulator's services; checks that it simulates this arena's robots."""
-        for proxy in (self._reset, self._pause, self._step):
+        for proxy in (self._reset, self._pause, self._step, self._run_until):
             try:
                 proxy.wait_for_service(timeout=timeout_wall)
             except rospy.ROSException:
@@ -136,6 +137,10 @@ class SimulatorLink:
         response = call_bounded(lambda: self._step(ticks), timeout_wall or self.answer_wall,
                                 f"{SIMULATOR}/step {ticks}")
         return int(response.tick), response.stamp.to_sec()
+
+    def run_until(self, tick: int) -> None:
+        """Resumes a paused simulator, which pauses again by itself once `tick` is published."""
+        call_bounded(lambda: self._run_until(tick), self.answer_wall, f"{SIMULATOR}/run_until {tick}")
 
     def reset(self, poses: Sequence[Tuple[float, float, float]]) -> None:
         """This arena's robots to `poses` (map frame), which become their start poses."""

@@ -2,6 +2,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
+#include <string>
+#include <vector>
 
 #include "marl_mrta/nav/move_base_core.h"
 #include "marl_mrta/nav/static_layer.h"
@@ -114,6 +117,37 @@ TEST(MoveBaseCore, UnreachableGoalAbortsAfterRecoveries) {
       << out.message;
   EXPECT_EQ((std::vector<std::string>{"conservative_reset", "rotate_recovery", "aggressive_reset", "rotate_recovery"}),
             recoveries);
+}
+
+TEST(MoveBaseCore, PatiencesEndOnTheSameTickWhateverTheStartTime) {
+  // The unreachable goal's planner patience (5 s) ends exactly on a planning tick. The node's
+  // clock is the simulator's tick stamps in whole nanoseconds, as ros::Time::toSec() gives them,
+  // so the same run started at another tick must see the patience end on the same tick. With
+  // 50 Hz physics the sums of seconds in doubles round such ties differently at these start
+  // ticks (at the default 20 Hz they happen to agree).
+  const int64_t ticks_per_cycle = 5;  // 50 Hz physics, 10 Hz control
+  auto stamp = [](int64_t tick) {
+    const int64_t nsec = tick * 20000000;
+    return static_cast<double>(nsec / 1000000000) + 1e-9 * static_cast<double>(nsec % 1000000000);
+  };
+  std::vector<std::vector<std::string>> runs;
+  for (const int64_t offset : {0, 72, 97, 118, 122, 147}) {
+    Harness h(roomMap(80, 60, {{39, 0, 42, 60}}), {0.5, 0.5, 0.0});
+    h.now = stamp(offset);
+    h.core.setGoal({3.0, 1.5, 0.0}, h.now);
+    std::vector<std::string> events;
+    CycleOutput out;
+    int cycle = 0;
+    for (; cycle < 2000 && out.outcome == CycleOutput::Outcome::kNone; ++cycle) {
+      h.now = stamp(offset + ticks_per_cycle * cycle);
+      out = h.cycle();
+      if (!out.recovery_started.empty()) events.push_back(std::to_string(cycle) + " " + out.recovery_started);
+    }
+    ASSERT_EQ(CycleOutput::Outcome::kAborted, out.outcome) << "start tick " << offset;
+    events.push_back(std::to_string(cycle) + " aborted");
+    runs.push_back(events);
+  }
+  for (size_t r = 1; r < runs.size(); ++r) EXPECT_EQ(runs[0], runs[r]) << "run " << r;
 }
 
 TEST(MoveBaseCore, CancelStopsCommanding) {
