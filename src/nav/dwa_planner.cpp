@@ -28,6 +28,22 @@ std::vector<double> sampleRange(double min, double max, int count) {
   return samples;
 }
 
+// The sample nearest the current velocity: what the robot is doing, usually close to the best.
+size_t closestSample(const std::vector<Velocity2D>& samples, const Velocity2D& velocity) {
+  size_t closest = 0;
+  double closest_sq = -1.0;
+  for (size_t i = 0; i < samples.size(); ++i) {
+    const double dx = samples[i].x - velocity.x, dy = samples[i].y - velocity.y;
+    const double dth = samples[i].theta - velocity.theta;
+    const double sq = dx * dx + dy * dy + dth * dth;
+    if (closest_sq < 0.0 || sq < closest_sq) {
+      closest_sq = sq;
+      closest = i;
+    }
+  }
+  return closest;
+}
+
 bool isBlocking(uint8_t cost) {
   return cost == kLethalObstacle || cost == kInscribedInflated || cost == kNoInformation;
 }
@@ -39,6 +55,7 @@ bool isBlocking(uint8_t cost) {
 void MapGrid::reset(unsigned size_x, unsigned size_y) {
   size_x_ = size_x;
   size_y_ = size_y;
+  goal_index_ = -1;
   target_dist_.assign(static_cast<size_t>(size_x) * size_y, unreachableCellCosts());
   marked_.assign(static_cast<size_t>(size_x) * size_y, 0);
 }
@@ -105,10 +122,8 @@ void MapGrid::setTargetCells(const CostGrid& costmap, const std::vector<Pose2D>&
   if (started) propagate(costmap, queue);
 }
 
-void MapGrid::setLocalGoal(const CostGrid& costmap, const std::vector<Pose2D>& plan) {
-  reset(costmap.sizeX(), costmap.sizeY());
+bool MapGrid::localGoalCell(const CostGrid& costmap, const std::vector<Pose2D>& plan, unsigned& goal_index) {
   bool started = false;
-  unsigned goal_index = 0;
   for (const Pose2D& p : adjustPlanResolution(plan, costmap.resolution())) {
     unsigned mx, my;
     if (costmap.worldToMap(p.x, p.y, mx, my) && costmap.cost(mx, my) != kNoInformation) {
@@ -118,8 +133,19 @@ void MapGrid::setLocalGoal(const CostGrid& costmap, const std::vector<Pose2D>& p
       break;
     }
   }
-  if (!started) return;
-  std::vector<unsigned> queue{goal_index};
+  return started;
+}
+
+void MapGrid::setLocalGoal(const CostGrid& costmap, const std::vector<Pose2D>& plan) {
+  unsigned goal_index = 0;
+  setGoalCell(costmap, localGoalCell(costmap, plan, goal_index) ? static_cast<int>(goal_index) : -1);
+}
+
+void MapGrid::setGoalCell(const CostGrid& costmap, int goal_index) {
+  reset(costmap.sizeX(), costmap.sizeY());
+  goal_index_ = goal_index;
+  if (goal_index < 0) return;
+  std::vector<unsigned> queue{static_cast<unsigned>(goal_index)};
   target_dist_[goal_index] = 0.0;
   marked_[goal_index] = 1;
   propagate(costmap, queue);
@@ -191,15 +217,18 @@ void DwaPlanner::updatePlanAndLocalCosts(const CostGrid& costmap, const Pose2D& 
   const double angle_to_goal = std::atan2(goal.y - pose.y, goal.x - pose.x);
   front_plan.back().x += config_.forward_point_distance * std::cos(angle_to_goal);
   front_plan.back().y += config_.forward_point_distance * std::sin(angle_to_goal);
-  goal_front_grid_.setLocalGoal(costmap, front_plan);
+  // Where the plan leaves the local map before its end, the nose's local goal is the goal
+  // grid's own cell: the same grid.
+  unsigned front_cell = 0;
+  const int front_goal = MapGrid::localGoalCell(costmap, front_plan, front_cell) ? static_cast<int>(front_cell) : -1;
+  front_shares_goal_grid_ = front_goal == goal_grid_.goalCell();
+  if (!front_shares_goal_grid_) goal_front_grid_.setGoalCell(costmap, front_goal);
   // Keeping the nose on the path destabilises the last forward_point_distance: switch it off there.
   const double sq_dist = (pose.x - goal.x) * (pose.x - goal.x) + (pose.y - goal.y) * (pose.y - goal.y);
-  if (sq_dist > config_.forward_point_distance * config_.forward_point_distance) {
-    alignment_scale_ = costmap.resolution() * config_.path_distance_bias;
-    alignment_grid_.setTargetCells(costmap, plan);
-  } else {
-    alignment_scale_ = 0.0;
-  }
+  // (The alignment critic reads path_grid_: the same target cells.)
+  alignment_scale_ = sq_dist > config_.forward_point_distance * config_.forward_point_distance
+                         ? costmap.resolution() * config_.path_distance_bias
+                         : 0.0;
 }
 
 std::vector<Velocity2D> DwaPlanner::velocitySamples(const Velocity2D& velocity) const {
@@ -222,9 +251,19 @@ std::vector<Velocity2D> DwaPlanner::velocitySamples(const Velocity2D& velocity) 
 }
 
 bool DwaPlanner::generateTrajectory(const Pose2D& pose, const Velocity2D& sample, Trajectory& trajectory) const {
+  return generateTrajectory(pose, sample, trajectory, nullptr);
+}
+
+bool DwaPlanner::generateTrajectory(const Pose2D& pose, const Velocity2D& sample, Trajectory& trajectory,
+                                    YawSequence* yaws) const {
   const LocalPlannerLimits& l = config_.limits;
   constexpr double kEps = 1e-4;
-  trajectory = Trajectory{};
+  // Cleared, not replaced: the point buffers keep their capacity from sample to sample.
+  trajectory.points.clear();
+  trajectory.cos_yaw.clear();
+  trajectory.sin_yaw.clear();
+  trajectory.cost = -1.0;
+  trajectory.time_delta = 0.0;
   trajectory.xv = sample.x;
   trajectory.yv = sample.y;
   trajectory.thetav = sample.theta;
@@ -242,11 +281,28 @@ bool DwaPlanner::generateTrajectory(const Pose2D& pose, const Velocity2D& sample
   const double dt = config_.sim_time / steps;
   trajectory.time_delta = dt;
   Pose2D p = pose;
+  if (yaws && (yaws->steps != steps || yaws->theta != sample.theta)) {
+    // The headings of this rollout, for every later sample of the same vθ and step count.
+    yaws->theta = sample.theta;
+    yaws->steps = steps;
+    yaws->yaw.clear();
+    yaws->cos_yaw.clear();
+    yaws->sin_yaw.clear();
+    for (int i = 0; i < steps; ++i) {
+      const double c = std::cos(p.yaw), s = std::sin(p.yaw);
+      yaws->yaw.push_back(p.yaw);
+      yaws->cos_yaw.push_back(c);
+      yaws->sin_yaw.push_back(s);
+      p.yaw += sample.theta * dt;
+    }
+    p.yaw = pose.yaw;
+  }
   trajectory.points.reserve(steps);
   trajectory.cos_yaw.reserve(steps);
   trajectory.sin_yaw.reserve(steps);
   for (int i = 0; i < steps; ++i) {
-    const double c = std::cos(p.yaw), s = std::sin(p.yaw);
+    const double c = yaws ? yaws->cos_yaw[i] : std::cos(p.yaw), s = yaws ? yaws->sin_yaw[i] : std::sin(p.yaw);
+    if (yaws) p.yaw = yaws->yaw[i];
     trajectory.points.push_back(p);
     trajectory.cos_yaw.push_back(c);
     trajectory.sin_yaw.push_back(s);
@@ -281,31 +337,31 @@ double DwaPlanner::obstacleCost(const Trajectory& trajectory) const {
 double DwaPlanner::mapGridCost(const MapGrid& grid, const Trajectory& trajectory, double x_shift,
                                bool stop_on_failure) const {
   double cost = 0.0;
+  const size_t last = trajectory.points.size() - 1;
   for (size_t i = 0; i < trajectory.points.size(); ++i) {
     const Pose2D& p = trajectory.points[i];
     const double px = p.x + x_shift * trajectory.cos_yaw[i], py = p.y + x_shift * trajectory.sin_yaw[i];
     unsigned mx, my;
     if (!costmap_->worldToMap(px, py, mx, my)) return -4.0;
+    // Only the last point's distance counts; the others matter only where they can discard.
+    if (!stop_on_failure && i != last) continue;
     const double d = grid.distance(mx, my);
     if (stop_on_failure) {
       if (d == grid.obstacleCosts()) return -3.0;
       if (d == grid.unreachableCellCosts()) return -2.0;
     }
-    cost = d;  // the last point counts
+    cost = d;
   }
   return cost;
 }
 
-double DwaPlanner::scoreTrajectory(const Trajectory& trajectory, double best_cost) const {
+double DwaPlanner::scoreWithoutObstacles(const Trajectory& trajectory, double bound) const {
   const double res = costmap_ ? costmap_->resolution() : 0.05;
   const double path_scale = res * config_.path_distance_bias;
   const double goal_scale = res * config_.goal_distance_bias;
   const double fpd = config_.forward_point_distance;
-  // The critics of dwa_local_planner: scale, cost (negative = discard), what it prefers.
-  // dwa_local_planner runs the obstacle critic second; here it runs last. Every cost is >= 0
-  // and a sample is dropped as soon as its partial sum exceeds the best total, so the order
-  // never changes which sample wins; running the costly footprint check last skips it for
-  // most samples that are already worse.
+  // The critics of dwa_local_planner but the obstacle one, which scoreTrajectory() adds last
+  // (dwa_local_planner runs it second): scale, cost (negative = discard), what it prefers.
   struct Critic {
     double scale;
     double (*score)(const DwaPlanner&, const Trajectory&, double fpd);
@@ -315,10 +371,13 @@ double DwaPlanner::scoreTrajectory(const Trajectory& trajectory, double best_cos
       {1.0, [](const DwaPlanner& p, const Trajectory& t, double) { return p.oscillationCost(t); }},
       // goal front (goal_distance_bias): the nose point's distance to the local goal
       {goal_scale,
-       [](const DwaPlanner& p, const Trajectory& t, double f) { return p.mapGridCost(p.goal_front_grid_, t, f, false); }},
+       [](const DwaPlanner& p, const Trajectory& t, double f) {
+         return p.mapGridCost(p.front_shares_goal_grid_ ? p.goal_grid_ : p.goal_front_grid_, t, f, false);
+       }},
       // alignment (path_distance_bias, 0 near the goal): the nose point's distance to the path
+      // (the path critic's grid: dwa_local_planner gives both critics the same target cells)
       {alignment_scale_,
-       [](const DwaPlanner& p, const Trajectory& t, double f) { return p.mapGridCost(p.alignment_grid_, t, f, false); }},
+       [](const DwaPlanner& p, const Trajectory& t, double f) { return p.mapGridCost(p.path_grid_, t, f, false); }},
       // path (path_distance_bias): the end point's distance to the global path
       {path_scale,
        [](const DwaPlanner& p, const Trajectory& t, double) { return p.mapGridCost(p.path_grid_, t, 0.0, true); }},
@@ -327,8 +386,6 @@ double DwaPlanner::scoreTrajectory(const Trajectory& trajectory, double best_cos
        [](const DwaPlanner& p, const Trajectory& t, double) { return p.mapGridCost(p.goal_grid_, t, 0.0, true); }},
       // twirling (twirling_scale): prefers less spinning
       {config_.twirling_scale, [](const DwaPlanner&, const Trajectory& t, double) { return std::fabs(t.thetav); }},
-      // obstacle (occdist_scale): max footprint cost along the rollout; lethal contact discards
-      {config_.occdist_scale, [](const DwaPlanner& p, const Trajectory& t, double) { return p.obstacleCost(t); }},
   };
   double total = 0.0;
   for (const Critic& critic : critics) {
@@ -336,10 +393,19 @@ double DwaPlanner::scoreTrajectory(const Trajectory& trajectory, double best_cos
     const double cost = critic.score(*this, trajectory, fpd);
     if (cost < 0.0) return cost;
     total += cost * critic.scale;
-    // Costs only add up: once worse than the best so far, it stays worse.
-    if (best_cost > 0.0 && total > best_cost) break;
+    // Costs only add up: once above the bound, it stays above.
+    if (bound >= 0.0 && total > bound) break;
   }
   return total;
+}
+
+double DwaPlanner::scoreTrajectory(const Trajectory& trajectory, double best_cost) const {
+  const double partial = scoreWithoutObstacles(trajectory, best_cost);
+  if (partial < 0.0 || config_.occdist_scale == 0.0 || (best_cost >= 0.0 && partial > best_cost)) return partial;
+  // obstacle (occdist_scale): max footprint cost along the rollout; lethal contact discards
+  const double obstacle = obstacleCost(trajectory);
+  if (obstacle < 0.0) return obstacle;
+  return partial + obstacle * config_.occdist_scale;
 }
 
 void DwaPlanner::updateOscillationFlags(const Pose2D& pose, const Trajectory& chosen) {
@@ -408,20 +474,79 @@ void DwaPlanner::updateOscillationFlags(const Pose2D& pose, const Trajectory& ch
 }
 
 Trajectory DwaPlanner::findBestPath(const Pose2D& pose, const Velocity2D& velocity) {
+  // The winner is the valid sample of lowest total cost, the first in sample order on a tie.
+  // The footprint check (obstacle critic) is the costly one, so it runs last and only as far
+  // as needed. Costs only add up, so a sample whose partial sum exceeds a valid sample's
+  // total cannot win:
+  //  1. the sample closest to the current velocity is scored whole: a first bound;
+  //  2. the other critics score every sample, dropping those above the bound;
+  //  3. the rest get the footprint check in order of their partial cost, until a partial
+  //     cost exceeds the best total found.
+  struct Candidate {
+    double partial;
+    size_t sample;
+  };
+  const std::vector<Velocity2D> samples = velocitySamples(velocity);
+  if (samples.empty()) {
+    Trajectory none;
+    none.cost = -7.0;
+    last_sample_count_ = 0;
+    return none;
+  }
+  // Samples run through vθ innermost: the k-th vθ of every (vx, vy) shares its headings.
+  size_t n_theta = 1;
+  while (n_theta < samples.size() && samples[n_theta].x == samples[0].x && samples[n_theta].y == samples[0].y) {
+    ++n_theta;
+  }
+  yaw_cache_.resize(n_theta);
+  for (YawSequence& yaws : yaw_cache_) yaws.steps = -1;  // headings start from this pose
+  double best_cost = -1.0;
+  size_t best_sample = 0;
+  const size_t seed = closestSample(samples, velocity);
+  if (generateTrajectory(pose, samples[seed], rollout_, &yaw_cache_[seed % n_theta])) {
+    const double cost = scoreTrajectory(rollout_, -1.0);
+    if (cost >= 0.0) {
+      best_cost = cost;
+      best_sample = seed;
+    }
+  }
+  std::vector<Candidate> candidates;
+  candidates.reserve(samples.size());
+  last_sample_count_ = 0;
+  for (size_t i = 0; i < samples.size(); ++i) {
+    if (!generateTrajectory(pose, samples[i], rollout_, &yaw_cache_[i % n_theta])) continue;
+    ++last_sample_count_;
+    if (best_cost >= 0.0 && i == seed) continue;
+    const double partial = scoreWithoutObstacles(rollout_, best_cost);
+    if (partial >= 0.0 && (best_cost < 0.0 || partial <= best_cost)) candidates.push_back({partial, i});
+  }
+  // A heap with the lowest (partial cost, sample) on top.
+  const auto after = [](const Candidate& a, const Candidate& b) {
+    return a.partial > b.partial || (a.partial == b.partial && a.sample > b.sample);
+  };
+  std::make_heap(candidates.begin(), candidates.end(), after);
+  while (!candidates.empty()) {
+    std::pop_heap(candidates.begin(), candidates.end(), after);
+    const Candidate next = candidates.back();
+    candidates.pop_back();
+    if (best_cost >= 0.0 && next.partial > best_cost) break;
+    double cost = next.partial;
+    if (config_.occdist_scale != 0.0) {
+      generateTrajectory(pose, samples[next.sample], rollout_, &yaw_cache_[next.sample % n_theta]);
+      const double obstacle = obstacleCost(rollout_);
+      if (obstacle < 0.0) continue;
+      cost += obstacle * config_.occdist_scale;
+    }
+    if (best_cost < 0.0 || cost < best_cost || (cost == best_cost && next.sample < best_sample)) {
+      best_cost = cost;
+      best_sample = next.sample;
+    }
+  }
   Trajectory best;
   best.cost = -7.0;
-  double best_cost = -1.0;
-  Trajectory candidate;
-  last_sample_count_ = 0;
-  for (const Velocity2D& sample : velocitySamples(velocity)) {
-    if (!generateTrajectory(pose, sample, candidate)) continue;
-    ++last_sample_count_;
-    const double cost = scoreTrajectory(candidate, best_cost);
-    if (cost >= 0.0 && (best_cost < 0.0 || cost < best_cost)) {
-      best_cost = cost;
-      candidate.cost = cost;
-      best = candidate;
-    }
+  if (best_cost >= 0.0) {
+    generateTrajectory(pose, samples[best_sample], best, &yaw_cache_[best_sample % n_theta]);
+    best.cost = best_cost;
   }
   updateOscillationFlags(pose, best);
   return best;

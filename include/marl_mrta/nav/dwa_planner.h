@@ -70,6 +70,11 @@ class MapGrid {
   void setTargetCells(const CostGrid& costmap, const std::vector<Pose2D>& plan);
   // Target: the last plan cell inside the map (goal distance).
   void setLocalGoal(const CostGrid& costmap, const std::vector<Pose2D>& plan);
+  // That cell, false when the plan never enters the map.
+  static bool localGoalCell(const CostGrid& costmap, const std::vector<Pose2D>& plan, unsigned& goal_index);
+  // Target: one cell (-1: none, every cell unreachable).
+  void setGoalCell(const CostGrid& costmap, int goal_index);
+  int goalCell() const { return goal_index_; }
   double distance(unsigned mx, unsigned my) const { return target_dist_[my * size_x_ + mx]; }
   double obstacleCosts() const { return static_cast<double>(size_x_) * size_y_; }
   double unreachableCellCosts() const { return obstacleCosts() + 1.0; }
@@ -77,6 +82,7 @@ class MapGrid {
  private:
   void propagate(const CostGrid& costmap, std::vector<unsigned>& queue);
   unsigned size_x_ = 0, size_y_ = 0;
+  int goal_index_ = -1;  // setGoalCell's target
   std::vector<double> target_dist_;
   std::vector<char> marked_;
 };
@@ -112,7 +118,8 @@ class DwaPlanner {
   std::vector<Velocity2D> velocitySamples(const Velocity2D& velocity) const;
   // Rolls a sample out; false (no points) when it is below the minimum or above the maximum speed.
   bool generateTrajectory(const Pose2D& pose, const Velocity2D& sample, Trajectory& trajectory) const;
-  // Sum of scaled critic costs, or the negative code of the critic that discarded it.
+  // Sum of scaled critic costs, or the negative code of the critic that discarded it. A sum
+  // above best_cost (>= 0) may be left partial: the sample cannot win.
   double scoreTrajectory(const Trajectory& trajectory, double best_cost) const;
   double footprintCost(const Pose2D& pose) const { return footprintCostAt(*costmap_, footprint_, pose); }
   size_t lastSampleCount() const { return last_sample_count_; }
@@ -128,19 +135,33 @@ class DwaPlanner {
              rot_neg_only;
     }
   };
+  // The headings of a rollout and their cos/sin: the same for every sample of equal vθ and
+  // step count from one pose, so computed once per findBestPath() for each.
+  struct YawSequence {
+    double theta = 0.0;
+    int steps = -1;  // -1: none yet
+    std::vector<double> yaw, cos_yaw, sin_yaw;
+  };
+  bool generateTrajectory(const Pose2D& pose, const Velocity2D& sample, Trajectory& trajectory,
+                          YawSequence* yaws) const;
   double oscillationCost(const Trajectory& trajectory) const;
   double obstacleCost(const Trajectory& trajectory) const;
   double mapGridCost(const MapGrid& grid, const Trajectory& trajectory, double x_shift, bool stop_on_failure) const;
+  // scoreTrajectory() without the obstacle critic; stops summing once above bound (>= 0).
+  double scoreWithoutObstacles(const Trajectory& trajectory, double bound) const;
   void updateOscillationFlags(const Pose2D& pose, const Trajectory& chosen);
 
   DwaConfig config_;
   const CostGrid* costmap_ = nullptr;
   Polygon footprint_;
-  MapGrid path_grid_, goal_grid_, goal_front_grid_, alignment_grid_;
+  MapGrid path_grid_, goal_grid_, goal_front_grid_;
+  bool front_shares_goal_grid_ = false;  // the nose's local goal is goal_grid_'s
   double alignment_scale_ = 0.0;
   OscillationFlags oscillation_;
   Pose2D prev_stationary_pose_;
   size_t last_sample_count_ = 0;
+  Trajectory rollout_;  // findBestPath's rollout buffer, reused from sample to sample
+  std::vector<YawSequence> yaw_cache_;  // findBestPath's, by position in the vθ samples
 };
 
 }  // namespace nav

@@ -179,6 +179,62 @@ TEST(Dwa, NeverDrivesIntoAnObstacleOnThePath) {
   EXPECT_GT(robot.pose.x, 1.0) << "the robot should at least have driven towards the obstacle";
 }
 
+TEST(Dwa, FindBestPathPicksWhatScoringEverySampleWouldPick) {
+  // findBestPath() skips footprint checks that cannot change the winner; scoring every sample
+  // whole, in sample order, must pick the same one (the first of the lowest cost), near and
+  // far from obstacles, with the obstacle critic weak (TurtleBot3) and strong.
+  const auto m = roomMap(100, 60, {{40, 20, 46, 34}, {60, 0, 62, 26}, {70, 36, 78, 44}});
+  auto costmap = costmapOf(m);
+  const std::vector<Pose2D> plan = straightPlan({0.3, 1.5, 0}, {4.7, 1.5, 0});
+  int compared = 0, differs_from_weak = 0;
+  for (const double occdist_scale : {0.02, 2.0}) {
+    DwaConfig config = burgerDwa();
+    config.occdist_scale = occdist_scale;
+    DwaPlanner planner(config);
+    for (double x = 0.6; x < 4.5; x += 0.23) {
+      for (const double yaw : {-0.9, -0.3, 0.0, 0.4, 1.1}) {
+        for (const Velocity2D velocity : {Velocity2D{0.0, 0.0, 0.0}, Velocity2D{0.2, 0.0, 0.5}, Velocity2D{0.1, 0.0, -1.2}}) {
+          const Pose2D pose{x, 1.5 + 0.3 * std::sin(3.0 * x), yaw};
+          planner.updatePlanAndLocalCosts(costmap->costmap(), pose, plan, costmap->footprint());
+          double best_cost = -1.0;
+          Velocity2D best;
+          for (const Velocity2D& sample : planner.velocitySamples(velocity)) {
+            Trajectory t;
+            if (!planner.generateTrajectory(pose, sample, t)) continue;
+            const double cost = planner.scoreTrajectory(t, -1.0);
+            if (cost >= 0.0 && (best_cost < 0.0 || cost < best_cost)) {
+              best_cost = cost;
+              best = sample;
+            }
+          }
+          const Trajectory chosen = planner.findBestPath(pose, velocity);
+          planner.resetOscillationFlags();
+          if (best_cost < 0.0) {
+            EXPECT_LT(chosen.cost, 0.0) << "x " << x << " yaw " << yaw;
+            continue;
+          }
+          ASSERT_EQ(best_cost, chosen.cost) << "x " << x << " yaw " << yaw << " occdist " << occdist_scale;
+          ++compared;
+          EXPECT_EQ(best.x, chosen.xv);
+          EXPECT_EQ(best.theta, chosen.thetav);
+          ASSERT_FALSE(chosen.points.empty());
+          EXPECT_EQ(pose.x, chosen.points.front().x);
+          if (occdist_scale > 1.0) {
+            DwaConfig weak_config = burgerDwa();
+            DwaPlanner weak(weak_config);
+            weak.updatePlanAndLocalCosts(costmap->costmap(), pose, plan, costmap->footprint());
+            const Trajectory w = weak.findBestPath(pose, velocity);
+            differs_from_weak += w.xv != chosen.xv || w.thetav != chosen.thetav;
+          }
+        }
+      }
+    }
+  }
+  EXPECT_GT(compared, 150);
+  // The strong obstacle critic must change some choices, or the check above proves little.
+  EXPECT_GT(differs_from_weak, 5);
+}
+
 TEST(Dwa, ReachesGoalPositionAndYawWithinTolerance) {
   const auto m = roomMap(80, 80, {});
   auto costmap = costmapOf(m);
