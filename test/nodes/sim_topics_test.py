@@ -4,11 +4,13 @@
 Black-box: subscribes, records a window of ``~sim_seconds`` of sim time, then checks that
 scan, odom and ground truth arrive at their configured rates (every period, none missing),
 that frame ids have no leading slash, and that tf2 resolves tb3_0/base_scan in tb3_0/odom
-at the Burger's lidar offset.
+at the Burger's lidar offset, with robot_state_publisher on wall time (its transforms are all
+static in simulation, so it need not take /clock).
 """
 import threading
 import unittest
 
+import rosgraph
 import rospy
 import rostest
 import tf2_ros
@@ -111,6 +113,15 @@ class TopicsTest(unittest.TestCase):
         self.assertAlmostEqual(t.x, SCAN_OFFSET[0], places=3)
         self.assertAlmostEqual(t.y, SCAN_OFFSET[1], places=3)
         self.assertAlmostEqual(t.z, SCAN_OFFSET[2], places=3)
+
+    def test_robot_state_publisher_does_not_take_the_clock(self):
+        # Fixed wheels: every transform of the robot description is static (/tf_static, sent once),
+        # so the node reads its own ~use_sim_time (false) instead of /use_sim_time.
+        _, subscriptions, _ = rosgraph.Master("/sim_topics_test").getSystemState()
+        clock_readers = dict(subscriptions).get("/clock", [])
+        self.assertIn(rospy.get_name(), clock_readers)   # a node on sim time does take it
+        for ns in ROBOTS:
+            self.assertNotIn("/%s/robot_state_publisher" % ns, clock_readers)
 
 
 if __name__ == "__main__":

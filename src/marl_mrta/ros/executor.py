@@ -35,6 +35,14 @@ from .sim_clock import SimClock, SimulatorLost, call_bounded, wait_wall
 from .sim_link import SimulatorLink
 
 
+def _elapsed(since: float, until: float) -> float:
+    """Sim time from `since` to `until`, in whole nanoseconds as ros::Time counts it: the plain
+    difference of two absolute times in seconds carries their rounding, which depends on when
+    the run started (a 46.7 s episode came out as 46.700000000000045 s in a launch that started
+    later)."""
+    return round((until - since) * 1e9) / 1e9
+
+
 class RosExecutor:
     """Executor over the simulator and the move_base nodes of one arena."""
 
@@ -97,7 +105,8 @@ class RosExecutor:
         for i in pending:
             goal = self.scenario.tasks[goals[i]].goal
             self.bases[i].send(goal.x, goal.y, goal.yaw)
-        deadline = t0 + min(time_limit, self.settings.goal_timeout)
+        limit = min(time_limit, self.settings.goal_timeout)
+        deadline = t0 + limit
         try:
             wait_wall(lambda: all(self.bases[i].accepted for i in pending), self.settings.simulator_lost_after,
                       lambda: "move_base of " + ", ".join(self.namespaces[i] for i in pending
@@ -120,11 +129,11 @@ class RosExecutor:
             result = self.bases[i].result
             # A preempted goal is one this executor cancelled at the deadline: a timeout.
             if result is not None and result.stamp <= deadline + 1e-9 and result.state != GoalStatus.PREEMPTED:
-                nav_time = min(max(result.stamp, t0) - t0, deadline - t0)
+                nav_time = min(_elapsed(t0, max(result.stamp, t0)), limit)
                 failure = "" if result.succeeded else result.describe()
                 robots.append(RobotOutcome(True, result.succeeded, nav_time, collisions[i], failure))
             else:
-                robots.append(RobotOutcome(True, False, deadline - t0, collisions[i], "goal timeout"))
+                robots.append(RobotOutcome(True, False, limit, collisions[i], "goal timeout"))
         return StepOutcome(robots=robots)
 
     def finish_step(self, duration: float) -> None:
@@ -215,7 +224,7 @@ class RosExecutor:
             self._pause(True)
         except SimulatorLost:
             pass
-        elapsed = max(0.0, self.clock.now() - t0) if t0 is not None else 0.0
+        elapsed = max(0.0, _elapsed(t0, self.clock.now())) if t0 is not None else 0.0
         robots = [RobotOutcome(has_goal=g is not None, reached=False, nav_time=elapsed if g is not None else 0.0,
                                failure="aborted" if g is not None else "") for g in goals]
         return StepOutcome(robots=robots, aborted=True, abort_reason=reason)
