@@ -6,6 +6,7 @@
 
 #include "marl_mrta/nav/cpu_clock.h"
 #include "marl_mrta/nav/static_layer.h"
+#include "marl_mrta/nav/time_compare.h"
 
 namespace marl_mrta {
 namespace nav {
@@ -82,11 +83,6 @@ class RotateRecovery : public RecoveryBehavior {
   double start_angle_ = 0.0;
   bool got_180_ = false;
 };
-
-// Whether `now` is later than `since` + `duration`. move_base compares ros::Time in whole
-// nanoseconds; in seconds as doubles a tie (the tick that ends a patience exactly) would come
-// out either way depending on the rounding of the absolute times, i.e. on when the run started.
-bool isPast(double now, double since, double duration) { return now > since + duration + 1e-9; }
 
 }  // namespace
 

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "marl_mrta/nav/layered_costmap.h"
+#include "marl_mrta/nav/time_compare.h"
 
 namespace marl_mrta {
 namespace nav {
@@ -220,7 +221,7 @@ void ObstacleLayer::reset() {
 bool ObstacleLayer::isCurrent(double now) const {
   for (size_t s = 0; s < buffers_.size(); ++s) {
     const double rate = config_.sources[s].expected_update_rate;
-    if (rate > 0.0 && (buffers_[s].last_arrival < 0.0 || now - buffers_[s].last_arrival > rate + 1e-9)) return false;
+    if (rate > 0.0 && (buffers_[s].last_arrival < 0.0 || isPast(now, buffers_[s].last_arrival, rate))) return false;
   }
   return true;
 }
