@@ -5,20 +5,19 @@ simulation time, after ``~warmup``. Also records the CPU time each node of the g
 that window (from /proc), writes ``~result_file`` (JSON) and shuts down (the launch file marks
 this node required, so the whole graph stops).
 
-Goals go straight to the action's goal topic and only results are listened to: an action
-client would also take every robot's feedback (one message per control cycle) and status, whose
-cost is the driver's, not the navigation's that the benchmark measures."""
+Goals go through ros/move_base_link.py (the action's goal, status and result topics): an action
+client would also take every robot's feedback (one message per control cycle), whose cost is the
+driver's, not the navigation's that the benchmark measures."""
 import json
-import math
 import os
-import threading
 import time
 import xmlrpc.client
 
 import rosgraph
 import rospy
 from actionlib_msgs.msg import GoalStatus
-from move_base_msgs.msg import MoveBaseActionGoal, MoveBaseActionResult
+
+from marl_mrta.ros.move_base_link import MoveBaseLink
 
 TICKS_PER_SECOND = os.sysconf("SC_CLK_TCK")
 
@@ -47,17 +46,9 @@ class Driver:
         self.robots = rospy.get_param("~robots")
         self.goals = rospy.get_param("~goals")
         self.outcomes = {}
-        self.active = {}  # robot -> id of its goal
-        self.sent = 0
-        self.finished = []  # robots whose goal ended: the main loop sends the next one
-        self.lock = threading.Lock()
-        self.goal_pubs = {ns: rospy.Publisher(ns + "/move_base/goal", MoveBaseActionGoal, queue_size=10)
-                          for ns in self.robots}
-        self.result_subs = [rospy.Subscriber(ns + "/move_base/result", MoveBaseActionResult, self.done,
-                                             callback_args=ns, queue_size=10) for ns in self.robots]
+        self.links = {ns: MoveBaseLink(ns, "map") for ns in self.robots}
         deadline = time.time() + 60.0
-        while not all(self.goal_pubs[ns].get_num_connections() > 0 and sub.get_num_connections() > 0
-                      for ns, sub in zip(self.robots, self.result_subs)):
+        while not all(link.connected() for link in self.links.values()):
             if time.time() > deadline or rospy.is_shutdown():
                 raise RuntimeError("move_base action topics not connected for every robot")
             time.sleep(0.05)
@@ -66,34 +57,17 @@ class Driver:
     def send(self, ns):
         x, y, yaw = self.goals[self.next_goal[ns]]
         self.next_goal[ns] = (self.next_goal[ns] + 1) % len(self.goals)
-        self.sent += 1
-        goal = MoveBaseActionGoal()
-        goal.header.stamp = rospy.Time.now()
-        goal.goal_id.stamp = goal.header.stamp
-        goal.goal_id.id = "nav_bench_driver-%s-%d" % (ns, self.sent)
-        goal.goal.target_pose.header.frame_id = "map"
-        goal.goal.target_pose.pose.position.x, goal.goal.target_pose.pose.position.y = x, y
-        goal.goal.target_pose.pose.orientation.z = math.sin(yaw / 2.0)
-        goal.goal.target_pose.pose.orientation.w = math.cos(yaw / 2.0)
-        with self.lock:
-            self.active[ns] = goal.goal_id.id
-        self.goal_pubs[ns].publish(goal)
-
-    def done(self, msg, ns):
-        state = msg.status.status
-        name = {GoalStatus.SUCCEEDED: "succeeded", GoalStatus.ABORTED: "aborted",
-                GoalStatus.PREEMPTED: "preempted"}.get(state, "state_%d" % state)
-        with self.lock:
-            if self.active.get(ns) != msg.status.goal_id.id:
-                return  # not this driver's current goal
-            del self.active[ns]
-            self.outcomes[name] = self.outcomes.get(name, 0) + 1
-            self.finished.append(ns)
+        self.links[ns].send(x, y, yaw)
 
     def resend(self):
-        with self.lock:
-            finished, self.finished = self.finished, []
-        for ns in finished:
+        """Counts every goal that has ended and sends that robot its next one."""
+        for ns, link in self.links.items():
+            result = link.result
+            if result is None:
+                continue
+            name = {GoalStatus.SUCCEEDED: "succeeded", GoalStatus.ABORTED: "aborted",
+                    GoalStatus.PREEMPTED: "preempted"}.get(result.state, "state_%d" % result.state)
+            self.outcomes[name] = self.outcomes.get(name, 0) + 1
             self.send(ns)
 
 
