@@ -251,11 +251,12 @@ std::vector<Velocity2D> DwaPlanner::velocitySamples(const Velocity2D& velocity) 
 }
 
 bool DwaPlanner::generateTrajectory(const Pose2D& pose, const Velocity2D& sample, Trajectory& trajectory) const {
-  return generateTrajectory(pose, sample, trajectory, nullptr);
+  YawSequence yaws;
+  return generateTrajectory(pose, sample, trajectory, yaws);
 }
 
 bool DwaPlanner::generateTrajectory(const Pose2D& pose, const Velocity2D& sample, Trajectory& trajectory,
-                                    YawSequence* yaws) const {
+                                    YawSequence& yaws) const {
   const LocalPlannerLimits& l = config_.limits;
   constexpr double kEps = 1e-4;
   // Cleared, not replaced: the point buffers keep their capacity from sample to sample.
@@ -280,35 +281,30 @@ bool DwaPlanner::generateTrajectory(const Pose2D& pose, const Velocity2D& sample
   if (steps == 0) return false;
   const double dt = config_.sim_time / steps;
   trajectory.time_delta = dt;
-  Pose2D p = pose;
-  if (yaws && (yaws->steps != steps || yaws->theta != sample.theta)) {
+  if (yaws.steps != steps || yaws.theta != sample.theta) {
     // The headings of this rollout, for every later sample of the same vθ and step count.
-    yaws->theta = sample.theta;
-    yaws->steps = steps;
-    yaws->yaw.clear();
-    yaws->cos_yaw.clear();
-    yaws->sin_yaw.clear();
+    yaws.theta = sample.theta;
+    yaws.steps = steps;
+    yaws.yaw.clear();
+    yaws.cos_yaw.clear();
+    yaws.sin_yaw.clear();
+    double yaw = pose.yaw;
     for (int i = 0; i < steps; ++i) {
-      const double c = std::cos(p.yaw), s = std::sin(p.yaw);
-      yaws->yaw.push_back(p.yaw);
-      yaws->cos_yaw.push_back(c);
-      yaws->sin_yaw.push_back(s);
-      p.yaw += sample.theta * dt;
+      yaws.yaw.push_back(yaw);
+      yaws.cos_yaw.push_back(std::cos(yaw));
+      yaws.sin_yaw.push_back(std::sin(yaw));
+      yaw += sample.theta * dt;
     }
-    p.yaw = pose.yaw;
   }
   trajectory.points.reserve(steps);
-  trajectory.cos_yaw.reserve(steps);
-  trajectory.sin_yaw.reserve(steps);
+  trajectory.cos_yaw = yaws.cos_yaw;
+  trajectory.sin_yaw = yaws.sin_yaw;
+  double x = pose.x, y = pose.y;
   for (int i = 0; i < steps; ++i) {
-    const double c = yaws ? yaws->cos_yaw[i] : std::cos(p.yaw), s = yaws ? yaws->sin_yaw[i] : std::sin(p.yaw);
-    if (yaws) p.yaw = yaws->yaw[i];
-    trajectory.points.push_back(p);
-    trajectory.cos_yaw.push_back(c);
-    trajectory.sin_yaw.push_back(s);
-    p.x += (sample.x * c - sample.y * s) * dt;
-    p.y += (sample.x * s + sample.y * c) * dt;
-    p.yaw += sample.theta * dt;
+    const double c = yaws.cos_yaw[i], s = yaws.sin_yaw[i];
+    trajectory.points.push_back({x, y, yaws.yaw[i]});
+    x += (sample.x * c - sample.y * s) * dt;
+    y += (sample.x * s + sample.y * c) * dt;
   }
   return true;
 }
@@ -503,7 +499,7 @@ Trajectory DwaPlanner::findBestPath(const Pose2D& pose, const Velocity2D& veloci
   double best_cost = -1.0;
   size_t best_sample = 0;
   const size_t seed = closestSample(samples, velocity);
-  if (generateTrajectory(pose, samples[seed], rollout_, &yaw_cache_[seed % n_theta])) {
+  if (generateTrajectory(pose, samples[seed], rollout_, yaw_cache_[seed % n_theta])) {
     const double cost = scoreTrajectory(rollout_, -1.0);
     if (cost >= 0.0) {
       best_cost = cost;
@@ -514,7 +510,7 @@ Trajectory DwaPlanner::findBestPath(const Pose2D& pose, const Velocity2D& veloci
   candidates.reserve(samples.size());
   last_sample_count_ = 0;
   for (size_t i = 0; i < samples.size(); ++i) {
-    if (!generateTrajectory(pose, samples[i], rollout_, &yaw_cache_[i % n_theta])) continue;
+    if (!generateTrajectory(pose, samples[i], rollout_, yaw_cache_[i % n_theta])) continue;
     ++last_sample_count_;
     if (best_cost >= 0.0 && i == seed) continue;
     const double partial = scoreWithoutObstacles(rollout_, best_cost);
@@ -532,7 +528,7 @@ Trajectory DwaPlanner::findBestPath(const Pose2D& pose, const Velocity2D& veloci
     if (best_cost >= 0.0 && next.partial > best_cost) break;
     double cost = next.partial;
     if (config_.occdist_scale != 0.0) {
-      generateTrajectory(pose, samples[next.sample], rollout_, &yaw_cache_[next.sample % n_theta]);
+      generateTrajectory(pose, samples[next.sample], rollout_, yaw_cache_[next.sample % n_theta]);
       const double obstacle = obstacleCost(rollout_);
       if (obstacle < 0.0) continue;
       cost += obstacle * config_.occdist_scale;
@@ -545,7 +541,7 @@ Trajectory DwaPlanner::findBestPath(const Pose2D& pose, const Velocity2D& veloci
   Trajectory best;
   best.cost = -7.0;
   if (best_cost >= 0.0) {
-    generateTrajectory(pose, samples[best_sample], best, &yaw_cache_[best_sample % n_theta]);
+    generateTrajectory(pose, samples[best_sample], best, yaw_cache_[best_sample % n_theta]);
     best.cost = best_cost;
   }
   updateOscillationFlags(pose, best);

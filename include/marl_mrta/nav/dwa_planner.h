@@ -142,8 +142,9 @@ class DwaPlanner {
     int steps = -1;  // -1: none yet
     std::vector<double> yaw, cos_yaw, sin_yaw;
   };
+  // Rolls out with the headings in `yaws`, computing them first unless they are this sample's.
   bool generateTrajectory(const Pose2D& pose, const Velocity2D& sample, Trajectory& trajectory,
-                          YawSequence* yaws) const;
+                          YawSequence& yaws) const;
   double oscillationCost(const Trajectory& trajectory) const;
   double obstacleCost(const Trajectory& trajectory) const;
   double mapGridCost(const MapGrid& grid, const Trajectory& trajectory, double x_shift, bool stop_on_failure) const;
