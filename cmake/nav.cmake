@@ -33,8 +33,12 @@ foreach(node map_server move_base fake_localization)
   add_dependencies(nav_${node} ${PROJECT_NAME}_generate_messages_cpp ${catkin_EXPORTED_TARGETS})
   install(TARGETS nav_${node} RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 endforeach()
-target_sources(nav_move_base PRIVATE src/nav/nodes/move_base_ros.cpp src/nav/nodes/move_base_inputs.cpp)
-install(TARGETS ${PROJECT_NAME}_nav_core ${PROJECT_NAME}_nav_ros
+# move_base's ROS shell, shared by the node and the nodelet (cmake/nodelets.cmake).
+add_library(${PROJECT_NAME}_move_base_ros src/nav/nodes/move_base_inputs.cpp src/nav/nodes/move_base_ros.cpp)
+target_link_libraries(${PROJECT_NAME}_move_base_ros ${PROJECT_NAME}_nav_ros ${PROJECT_NAME}_nav_core ${catkin_LIBRARIES})
+add_dependencies(${PROJECT_NAME}_move_base_ros ${PROJECT_NAME}_generate_messages_cpp ${catkin_EXPORTED_TARGETS})
+target_link_libraries(nav_move_base ${PROJECT_NAME}_move_base_ros)
+install(TARGETS ${PROJECT_NAME}_move_base_ros ${PROJECT_NAME}_nav_core ${PROJECT_NAME}_nav_ros
   ARCHIVE DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
   LIBRARY DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
   RUNTIME DESTINATION ${CATKIN_GLOBAL_BIN_DESTINATION})

@@ -11,16 +11,18 @@ add_library(${PROJECT_NAME}_sim_core
 )
 target_link_libraries(${PROJECT_NAME}_sim_core ${PROJECT_NAME}_map)
 
-# The node: a thin ROS shell around the core.
-add_executable(simulator
+# The ROS shell around the core, shared by the node and the nodelet (cmake/nodelets.cmake).
+add_library(${PROJECT_NAME}_sim_ros
   src/sim/sim_messages_ros.cpp
   src/sim/sim_params_ros.cpp
-  src/sim/simulator_node.cpp
   src/sim/simulator_ros.cpp
 )
-add_dependencies(simulator ${PROJECT_NAME}_generate_messages_cpp ${catkin_EXPORTED_TARGETS})
+add_dependencies(${PROJECT_NAME}_sim_ros ${PROJECT_NAME}_generate_messages_cpp ${catkin_EXPORTED_TARGETS})
 # nav_ros: the ground-truth localisation it shares with fake_localization (publish_localization).
-target_link_libraries(simulator ${PROJECT_NAME}_sim_core ${PROJECT_NAME}_nav_ros ${catkin_LIBRARIES})
+target_link_libraries(${PROJECT_NAME}_sim_ros ${PROJECT_NAME}_sim_core ${PROJECT_NAME}_nav_ros ${catkin_LIBRARIES})
+
+add_executable(simulator src/sim/simulator_node.cpp)
+target_link_libraries(simulator ${PROJECT_NAME}_sim_ros ${catkin_LIBRARIES})
 
 # Benchmark helpers (scripts/bench_sim): the core alone, and a subscriber to every topic.
 add_executable(bench_sim_core src/sim/bench_sim_core.cpp)

@@ -21,6 +21,7 @@ debian_pkgs=(
   libnav-msgs-dev libstd-srvs-dev libvisualization-msgs-dev libros-rosgraph-msgs-dev
   libtf2-ros-dev libtf2-geometry-msgs-dev libactionlib-dev libactionlib-msgs-dev
   libmove-base-msgs-dev liblaser-geometry-dev ros-message-generation ros-message-runtime
+  libnodeletlib-dev libnodelet-dev libnodeletlib-tools pluginlib-dev
   python3-rospy python3-rostest librostest-dev python3-roslaunch python3-rosunit
   python3-tf2-ros python3-actionlib python3-move-base-msgs python3-nav-msgs
   python3-sensor-msgs python3-geometry-msgs python3-std-msgs python3-std-srvs
@@ -36,7 +37,7 @@ noetic_pkgs=(
   ros-noetic-ros-base ros-noetic-rostest ros-noetic-rviz ros-noetic-robot-state-publisher
   ros-noetic-xacro ros-noetic-tf2-ros ros-noetic-tf2-geometry-msgs ros-noetic-actionlib
   ros-noetic-laser-geometry ros-noetic-move-base-msgs ros-noetic-nav-msgs
-  ros-noetic-visualization-msgs ros-noetic-std-srvs
+  ros-noetic-visualization-msgs ros-noetic-std-srvs ros-noetic-nodelet ros-noetic-pluginlib
   ros-noetic-move-base ros-noetic-amcl ros-noetic-map-server ros-noetic-navfn
   ros-noetic-dwa-local-planner ros-noetic-costmap-2d ros-noetic-fake-localization
   libyaml-cpp-dev libgtest-dev python3-yaml python3-numpy python3-matplotlib

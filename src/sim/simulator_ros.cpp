@@ -2,7 +2,6 @@
 
 #include <marl_mrta/CollisionEvent.h>
 #include <rosgraph_msgs/Clock.h>
-#include <ros/callback_queue.h>
 
 #include <algorithm>
 #include <cmath>
@@ -28,7 +27,9 @@ constexpr double kLockstepWarnAfter = 5.0;
 
 }  // namespace
 
-SimulatorRos::SimulatorRos(ros::NodeHandle& nh, ros::NodeHandle& private_nh) {
+SimulatorRos::SimulatorRos(ros::NodeHandle& nh, ros::NodeHandle& private_nh)
+    : queue_(dynamic_cast<ros::CallbackQueue*>(nh.getCallbackQueue())) {
+  if (!queue_) queue_ = ros::getGlobalCallbackQueue();
   config_ = readSimConfig(private_nh);
   const std::string prefix = private_nh.getNamespace() + "/";
   WorldConfig world_config;
@@ -230,12 +231,12 @@ void SimulatorRos::publishState(const StepReport& report, bool initial) {
 }
 
 int SimulatorRos::run() {
-  ros::CallbackQueue& queue = *ros::getGlobalCallbackQueue();
+  ros::CallbackQueue& queue = *queue_;
   timing_.start = timing_.paused_since = ros::WallTime::now();
   paused_ = config_.start_paused;
   publishState(StepReport{}, true);
   ros::WallTime tick_sent = timing_.start, tick_stepped = timing_.start;
-  while (ros::ok()) {
+  while (ros::ok() && !stop_requested_) {
     queue.callAvailable();
     if (config_.stop_after > 0.0 && world_->time() >= config_.stop_after - 1e-9) break;
     if (!paused_ && run_until_tick_ > 0 && world_->tick() >= run_until_tick_) {

@@ -13,6 +13,8 @@ One script, several cases chosen by ``~case``:
   repeat     two arenas, one robot each at the same start: the first goals of the tour, sent to
              both at the same tick, give the same result times and the same poses to the last bit
              (lock-step runs do not depend on message timing or machine load)
+  nodelets   repeat, with the simulator and both move_base loaded as nodelets into /sim_manager
+             (sim.launch nodelets:=true), which must serve their topics itself
 Times are simulation time; waiting is bounded by wall-clock deadlines (a stalled lock-step
 graph fails the test instead of hanging it). Goals of the tour start with the robot at rest on a
 whole simulated second (the simulator paused and stepped there, move_base caught up), so a lock-step
@@ -29,6 +31,7 @@ import unittest
 import xml.etree.ElementTree as ElementTree
 
 import actionlib
+import rosgraph
 import rospkg
 import rospy
 import rostest
@@ -334,6 +337,15 @@ class RepeatTest(NavTest):
             self.assertEqual(outcomes[0], outcomes[1], "goal %s: (ticks, pose) of the twins differ" % task.get("id"))
 
 
+class NodeletsTest(RepeatTest):
+    def test_simulator_and_move_base_run_in_the_manager(self):
+        publishers = dict(rosgraph.Master(rospy.get_name()).getSystemState()[0])
+        self.assertEqual(publishers.get("/simulator/tick"), ["/sim_manager"])
+        for ns in self.robots:
+            self.assertEqual(publishers.get("/%s/cmd_vel" % ns), ["/sim_manager"], ns)
+            self.assertEqual(publishers.get("/%s/move_base/status" % ns), ["/sim_manager"], ns)
+
+
 class Tb3WorldTest(NavTest):
     def test_three_goals_on_turtlebot3_map(self):
         if not rospy.get_param("~map_available", True):
@@ -346,7 +358,7 @@ class Tb3WorldTest(NavTest):
 
 
 CASES = {"tour": TourTest, "swap": SwapTest, "goal_errors": GoalErrorsTest, "cancel": CancelTest,
-         "tb3_world": Tb3WorldTest, "repeat": RepeatTest}
+         "tb3_world": Tb3WorldTest, "repeat": RepeatTest, "nodelets": NodeletsTest}
 
 if __name__ == "__main__":
     rospy.init_node("nav_goals_test")

@@ -80,9 +80,12 @@ class TrainRosTest(unittest.TestCase):
         # With several arenas the clock is shared and never paused: a manager reads from /clock
         # how far the controllers have got (sim_link.SimulatorLink.tracks_answers), instead of
         # receiving every robot's answer at every tick. The simulator still takes them.
-        _, subscriptions, _ = rosgraph.Master("/train_ros_test").getSystemState()
+        publications, subscriptions, _ = rosgraph.Master("/train_ros_test").getSystemState()
         takers = dict(subscriptions).get("/simulator/lockstep_ack", [])
-        self.assertIn("/simulator", takers)
+        # The simulator's process: /simulator, or its nodelet manager (tasks.launch nodelets:=true).
+        simulator_host = dict(publications).get("/clock", ["/simulator"])
+        self.assertEqual(len(simulator_host), 1)
+        self.assertIn(simulator_host[0], takers)
         for arena in (0, 1):
             self.assertNotIn(f"/arena_{arena}/rl_task_allocation_manager", takers)
 

@@ -100,7 +100,8 @@ def test_nav_launch_stock_runs_one_map_server_for_all_robots():
                                          ["launch/execute.launch", "policy:=/tmp/actor.pt"]])
 def test_evaluation_launch_files_pass_navigation_lockstep_and_noise_on(launch_args):
     nodes, params = load(*launch_args)
-    assert nodes["/tb3_0/move_base"].package == "marl_mrta"      # defaults: built-in, lock-step, ideal
+    # Defaults: built-in (a nodelet in the simulator's manager), lock-step, ideal.
+    assert nodes["/tb3_0/move_base"].args == "load marl_mrta/MoveBase /sim_manager"
     assert params["/simulator/lockstep"] is True
     assert params["/simulator/noise_profile"] == "ideal"
     assert params["/simulator/publish_localization"] is True and "/tb3_1/fake_localization" not in nodes
@@ -111,6 +112,27 @@ def test_evaluation_launch_files_pass_navigation_lockstep_and_noise_on(launch_ar
     assert params["/simulator/publish_localization"] is False
     assert params["/simulator/lockstep"] is False
     assert params["/simulator/noise_profile"] == "measured_tb3"
+
+
+def test_nodelets_put_the_simulator_and_every_builtin_move_base_in_one_manager():
+    nodes, params = load("launch/tasks.launch", "arenas:=2")
+    assert nodes["/sim_manager"].package == "nodelet" and nodes["/sim_manager"].args == "manager"
+    assert nodes["/simulator"].package == "nodelet"
+    assert nodes["/simulator"].args == "load marl_mrta/Simulator /sim_manager"
+    assert params["/simulator/lockstep"] is True    # the nodelet reads the node's parameters
+    for ns in ("arena_0/tb3_0", "arena_0/tb3_1", "arena_1/tb3_0", "arena_1/tb3_1"):
+        move_base = nodes["/%s/move_base" % ns]
+        assert (move_base.package, move_base.type) == ("nodelet", "nodelet")
+        assert move_base.args == "load marl_mrta/MoveBase /sim_manager"
+        assert ["map", "/map"] in move_base.remap_args
+        assert params["/%s/move_base/controller_frequency" % ns] == 10.0
+    nodes, _ = load("launch/tasks.launch", "nodelets:=false")
+    assert "/sim_manager" not in nodes
+    assert (nodes["/simulator"].package, nodes["/simulator"].type) == ("marl_mrta", "simulator")
+    assert (nodes["/tb3_0/move_base"].package, nodes["/tb3_0/move_base"].type) == ("marl_mrta", "move_base")
+    # The stock move_base is no nodelet: a node of its own even beside the manager.
+    nodes, _ = load("launch/tasks.launch", "nav:=stock", "lockstep:=false")
+    assert nodes["/tb3_0/move_base"].package == "move_base"
 
 
 def test_nav_auto_picks_builtin_without_move_base(monkeypatch):

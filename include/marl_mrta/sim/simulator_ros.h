@@ -2,9 +2,11 @@
 // real-time pacing and the lock-step protocol (docs/architecture.md, docs/simulator.md).
 #pragma once
 
+#include <ros/callback_queue.h>
 #include <ros/ros.h>
 #include <tf2_ros/transform_broadcaster.h>
 
+#include <atomic>
 #include <memory>
 #include <string>
 #include <vector>
@@ -28,11 +30,14 @@ namespace sim {
 class SimulatorRos {
  public:
   // Reads and checks the parameters, loads the map, builds the world. Throws ConfigError,
-  // map::MapError or WorldError (one line each, naming the parameter or file).
+  // map::MapError or WorldError (one line each, naming the parameter or file). The loop serves
+  // the callback queue of `nh` (the global one in the node, its own in the nodelet).
   SimulatorRos(ros::NodeHandle& nh, ros::NodeHandle& private_nh);
 
-  // Runs until shutdown or stop_after; returns the process exit code.
+  // Runs until shutdown, requestStop() or stop_after; returns the process exit code.
   int run();
+  // Ends run() at its next turn; callable from any thread (the nodelet's unload).
+  void requestStop() { stop_requested_ = true; }
 
  private:
   struct RobotIo {
@@ -77,6 +82,8 @@ class SimulatorRos {
   marl_mrta::SimTick last_tick_;  // re-sent while lock-step answers are missing
   std::unique_ptr<LockstepGate> lockstep_;
   std::unique_ptr<RealTimePacer> pacer_;
+  ros::CallbackQueue* queue_;
+  std::atomic<bool> stop_requested_{false};
   bool paused_ = false;
   uint64_t run_until_tick_ = 0;  // ~run_until: pause on reaching this tick (0: no limit)
   Timing timing_;

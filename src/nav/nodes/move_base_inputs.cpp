@@ -1,6 +1,7 @@
 // move_base's inputs and its clock: odometry, scans, tf lookups and the simulator's lock-step
 // ticks (or the wall-clock timer without lock-step), each control step fed from them.
 #include <cmath>
+#include <thread>
 
 #include "move_base_ros.h"
 #include "marl_mrta/nav/ros_conversions.h"
@@ -46,7 +47,6 @@ void MoveBaseRos::processTicks() {
       last_tick_time_ = tick.stamp;
       if (control) {
         last_control_period_ = period_index;
-        waitForClock(tick.stamp);
         controlStep(tick.stamp, tick.stamp);
       }
       last_acked_tick_ = static_cast<int64_t>(tick.tick);
@@ -62,19 +62,31 @@ void MoveBaseRos::processTicks() {
 }
 
 bool MoveBaseRos::pollUntil(const std::function<bool()>& done) const {
-  // Inputs of a tick arrive on other connections and threads: short sleeps, bounded in wall time.
-  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(tf_wait_);
+  // Inputs of a tick arrive on other connections and threads (roscpp's clock thread, the tf
+  // listener), bounded in wall time. That thread usually has only to be scheduled: yielding to
+  // it first goes on as soon as it has run, where a first sleep of 0.1 ms made the controllers
+  // of a nodelet graph wait for a fifth of its wall time; a longer wait sleeps.
+  if (done()) return true;
+  const ros::WallTime start = ros::WallTime::now(), deadline = start + ros::WallDuration(tf_wait_);
+  bool ok = true;
+  int spins = 0;
   while (!done()) {
-    if (ros::WallTime::now() > deadline || !ros::ok()) return false;
-    ros::WallDuration(0.0001).sleep();
+    if (ros::WallTime::now() > deadline || !ros::ok()) {
+      ok = false;
+      break;
+    }
+    if (++spins < 200) std::this_thread::yield(); else ros::WallDuration(0.0001).sleep();
   }
-  return true;
+  ++input_waits_;
+  input_wait_seconds_ += (ros::WallTime::now() - start).toSec();
+  return ok;
 }
 
 void MoveBaseRos::waitForClock(const ros::Time& stamp) const {
-  // actionlib stamps results and status with ros::Time::now(), which follows /clock on roscpp's
-  // own thread and may still be a tick or two behind under load. The simulator sends the clock
-  // before the tick, so this wait is short; after it a result carries the tick it happened at.
+  // actionlib stamps results, status and feedback with ros::Time::now(), which follows /clock
+  // on roscpp's own thread and may still be a tick or two behind under load. The simulator sends
+  // the clock before the tick, and this is asked after the control step's computation, so it
+  // rarely waits; after it a result carries the tick it happened at.
   if (ros::Time::isSimTime()) pollUntil([&] { return ros::Time::now() >= stamp; });
 }
 

@@ -15,8 +15,9 @@ namespace nav {
 
 namespace conv = ros_conversions;
 
-MoveBaseRos::MoveBaseRos(ros::NodeHandle& nh, ros::NodeHandle& private_nh)
-    : nh_(nh), private_nh_(private_nh), tf_listener_(tf_buffer_, ros::NodeHandle(), true, ros::TransportHints().tcpNoDelay()), action_server_(nh, "move_base", false) {
+MoveBaseRos::MoveBaseRos(ros::NodeHandle& nh, ros::NodeHandle& private_nh, std::shared_ptr<TransformSource> tf)
+    : nh_(nh), private_nh_(private_nh), tf_source_(std::move(tf)), tf_buffer_(tf_source_->buffer),
+      action_server_(nh, "move_base", false) {
   XmlRpc::XmlRpcValue params;
   ros::param::get(private_nh_.getNamespace(), params);
   const YAML::Node tree = params.getType() == XmlRpc::XmlRpcValue::TypeStruct ? conv::toYaml(params)
@@ -24,7 +25,7 @@ MoveBaseRos::MoveBaseRos(ros::NodeHandle& nh, ros::NodeHandle& private_nh)
   const ParamNode ns(tree, private_nh_.getNamespace().substr(1));
   const MoveBaseConfig config = readMoveBaseConfig(ns);
   // The project's own parameters: lock-step with the simulator, statistics.
-  std::string robot = ros::this_node::getNamespace();
+  std::string robot = nh_.getNamespace();  // the node's or the nodelet's namespace
   robot_name_ = ns.getString("lockstep_robot", robot.substr(robot.find_first_not_of('/')));
   // Take part when the simulator runs lock-step and lists this robot (an empty list: every robot).
   std::vector<std::string> lockstep_robots;
@@ -172,6 +173,7 @@ void MoveBaseRos::publishOutputs(const CycleOutput& out, const Pose2D& pose, con
     local_plan_pub_.publish(conv::toPath(out.local_plan, local_frame_, stamp));
   }
   if (!action_server_.isActive()) return;
+  waitForClock(stamp);  // actionlib stamps what follows with ros::Time::now()
   switch (out.outcome) {
     case CycleOutput::Outcome::kSucceeded:
       ROS_INFO("move_base: %s", out.message.c_str());
@@ -245,7 +247,8 @@ void MoveBaseRos::writeStats() const {
       << ", \"control_cycles\": " << t.control_cycles << ", \"control_s\": " << t.control
       << ", \"global_costmap_updates\": " << t.global_updates << ", \"global_costmap_s\": " << t.global_costmap
       << ", \"local_costmap_updates\": " << t.local_updates << ", \"local_costmap_s\": " << t.local_costmap
-      << ", \"cmd_vel\": " << cmd_vel_count_ << "}\n";
+      << ", \"cmd_vel\": " << cmd_vel_count_ << ", \"input_waits\": " << input_waits_
+      << ", \"input_wait_s\": " << input_wait_seconds_ << "}\n";
 }
 
 }  // namespace nav

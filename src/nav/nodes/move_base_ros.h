@@ -30,10 +30,20 @@
 namespace marl_mrta {
 namespace nav {
 
+// A tf buffer and the listener that fills it. The node has one of its own; the move_base
+// nodelets of one manager share one (move_base_nodelet.cpp), so that each /tf message is taken
+// in once, by one thread, instead of once per robot.
+struct TransformSource {
+  TransformSource() : listener(buffer, ros::NodeHandle(), true, ros::TransportHints().tcpNoDelay()) {}
+  tf2_ros::Buffer buffer;
+  tf2_ros::TransformListener listener;
+};
+
 class MoveBaseRos {
  public:
   // Reads and checks every parameter (throws ParamError, one line), warns about unknown ones.
-  MoveBaseRos(ros::NodeHandle& nh, ros::NodeHandle& private_nh);
+  MoveBaseRos(ros::NodeHandle& nh, ros::NodeHandle& private_nh,
+              std::shared_ptr<TransformSource> tf = std::make_shared<TransformSource>());
   ~MoveBaseRos();
 
  private:
@@ -78,8 +88,8 @@ class MoveBaseRos {
 
   ros::NodeHandle nh_, private_nh_;
   std::unique_ptr<MoveBaseCore> core_;
-  tf2_ros::Buffer tf_buffer_;
-  tf2_ros::TransformListener tf_listener_;
+  std::shared_ptr<TransformSource> tf_source_;
+  tf2_ros::Buffer& tf_buffer_;
   actionlib::SimpleActionServer<move_base_msgs::MoveBaseAction> action_server_;
   ros::Publisher cmd_vel_pub_, current_goal_pub_, plan_pub_, local_plan_pub_, global_plan_pub_;
   ros::Publisher global_costmap_pub_, local_costmap_pub_, action_goal_pub_, ack_pub_;
@@ -103,6 +113,9 @@ class MoveBaseRos {
   int64_t last_acked_tick_ = -1;
   uint32_t cmd_vel_count_ = 0;
   double tf_wait_ = 2.0;
+  // Inputs of a tick not there yet when needed (~stats_file): how often, and wall time waited.
+  mutable uint64_t input_waits_ = 0;
+  mutable double input_wait_seconds_ = 0.0;
   bool have_map_ = false;
 };
 

@@ -1,0 +1,67 @@
+// The built-in move_base as a nodelet (marl_mrta/MoveBase): the same MoveBaseRos as the node,
+// served by one thread of its own, as ros::spin() serves the node. Its own thread rather than
+// the manager's pool: a callback then costs one thread hand-over instead of two. The nodelets of
+// one manager share a tf buffer.
+#include <nodelet/nodelet.h>
+#include <pluginlib/class_list_macros.hpp>
+#include <ros/callback_queue.h>
+#include <ros/ros.h>
+
+#include <memory>
+#include <mutex>
+#include <stdexcept>
+
+#include "marl_mrta/nav/param_tree.h"
+#include "move_base_ros.h"
+
+namespace marl_mrta {
+namespace nav {
+
+namespace {
+
+// One tf buffer and listener for every move_base nodelet of the process, while any is loaded.
+std::shared_ptr<TransformSource> sharedTransformSource() {
+  static std::mutex mutex;
+  static std::weak_ptr<TransformSource> shared;
+  std::lock_guard<std::mutex> lock(mutex);
+  std::shared_ptr<TransformSource> source = shared.lock();
+  if (!source) {
+    source = std::make_shared<TransformSource>();
+    shared = source;
+  }
+  return source;
+}
+
+}  // namespace
+
+class MoveBaseNodelet : public nodelet::Nodelet {
+ public:
+  ~MoveBaseNodelet() override {
+    if (spinner_) spinner_->stop();
+  }
+
+ private:
+  void onInit() override {
+    ros::NodeHandle nh(getNodeHandle()), private_nh(getPrivateNodeHandle());
+    nh.setCallbackQueue(&queue_);
+    private_nh.setCallbackQueue(&queue_);
+    try {
+      move_base_ = std::make_unique<MoveBaseRos>(nh, private_nh, sharedTransformSource());
+    } catch (const ParamError& error) {
+      NODELET_FATAL("move_base: %s", error.what());
+      throw std::runtime_error(error.what());
+    }
+    spinner_ = std::make_unique<ros::AsyncSpinner>(1, &queue_);
+    spinner_->start();
+  }
+
+  // Declared first, destroyed last: the spinner stops before the node it serves goes.
+  ros::CallbackQueue queue_;
+  std::unique_ptr<MoveBaseRos> move_base_;
+  std::unique_ptr<ros::AsyncSpinner> spinner_;
+};
+
+}  // namespace nav
+}  // namespace marl_mrta
+
+PLUGINLIB_EXPORT_CLASS(marl_mrta::nav::MoveBaseNodelet, nodelet::Nodelet)

@@ -1,0 +1,50 @@
+// The `simulator` as a nodelet (marl_mrta/Simulator): the same SimulatorRos as the node, on its
+// own thread and callback queue, so that controllers loaded into the same manager exchange
+// ticks, commands, odometry and scans without sockets (sim.launch nodelets:=true).
+#include <nodelet/nodelet.h>
+#include <pluginlib/class_list_macros.hpp>
+#include <ros/callback_queue.h>
+#include <ros/ros.h>
+
+#include <memory>
+#include <stdexcept>
+#include <thread>
+
+#include "marl_mrta/sim/simulator_ros.h"
+
+namespace marl_mrta {
+namespace sim {
+
+class SimulatorNodelet : public nodelet::Nodelet {
+ public:
+  ~SimulatorNodelet() override {
+    if (simulator_) simulator_->requestStop();
+    if (loop_.joinable()) loop_.join();
+  }
+
+ private:
+  void onInit() override {
+    ros::NodeHandle nh(getNodeHandle()), private_nh(getPrivateNodeHandle());
+    nh.setCallbackQueue(&queue_);
+    private_nh.setCallbackQueue(&queue_);
+    try {
+      simulator_ = std::make_unique<SimulatorRos>(nh, private_nh);
+    } catch (const std::exception& e) {
+      // The manager reports it ("Failed to initialize nodelet ..."), and `nodelet load` fails.
+      NODELET_FATAL("%s", e.what());
+      throw std::runtime_error(e.what());
+    }
+    loop_ = std::thread([this] {
+      if (simulator_->run() != 0) NODELET_ERROR("simulator: the loop ended with an error");
+    });
+  }
+
+  ros::CallbackQueue queue_;
+  std::unique_ptr<SimulatorRos> simulator_;
+  std::thread loop_;
+};
+
+}  // namespace sim
+}  // namespace marl_mrta
+
+PLUGINLIB_EXPORT_CLASS(marl_mrta::sim::SimulatorNodelet, nodelet::Nodelet)
