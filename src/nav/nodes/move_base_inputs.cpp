@@ -93,8 +93,12 @@ void MoveBaseRos::waitForClock(const ros::Time& stamp) const {
 bool MoveBaseRos::lookupPose(const std::string& target, const std::string& source, const ros::Time& time,
                              Pose2D& pose, std::string& error) {
   // The latest transform (time 0) is there or not: no waiting for it.
+  tf_source_->drain();
   const bool available = time.isZero() ? tf_buffer_.canTransform(target, source, time, &error)
-                                       : pollUntil([&] { return tf_buffer_.canTransform(target, source, time, &error); });
+                                       : pollUntil([&] {
+                                           tf_source_->drain();
+                                           return tf_buffer_.canTransform(target, source, time, &error);
+                                         });
   if (!available) return false;
   pose = conv::toPose2D(tf_buffer_.lookupTransform(target, source, time));
   return true;

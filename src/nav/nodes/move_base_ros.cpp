@@ -4,6 +4,7 @@
 #include <nav_msgs/Path.h>
 #include <tf2_geometry_msgs/tf2_geometry_msgs.h>
 
+#include <chrono>
 #include <cmath>
 #include <fstream>
 
@@ -15,8 +16,25 @@ namespace nav {
 
 namespace conv = ros_conversions;
 
+TransformSource::TransformSource() {
+  ros::NodeHandle nh;
+  nh.setCallbackQueue(&queue_);
+  listener_ = std::make_unique<tf2_ros::TransformListener>(buffer_, nh, false, ros::TransportHints().tcpNoDelay());
+  drainer_ = std::thread([this] {
+    while (!stop_ && ros::ok()) {
+      drain();
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+  });
+}
+
+TransformSource::~TransformSource() {
+  stop_ = true;
+  drainer_.join();
+}
+
 MoveBaseRos::MoveBaseRos(ros::NodeHandle& nh, ros::NodeHandle& private_nh, std::shared_ptr<TransformSource> tf)
-    : nh_(nh), private_nh_(private_nh), tf_source_(std::move(tf)), tf_buffer_(tf_source_->buffer),
+    : nh_(nh), private_nh_(private_nh), tf_source_(std::move(tf)), tf_buffer_(tf_source_->buffer()),
       action_server_(nh, "move_base", false) {
   XmlRpc::XmlRpcValue params;
   ros::param::get(private_nh_.getNamespace(), params);
@@ -119,6 +137,7 @@ void MoveBaseRos::onGoal() {
   try {
     geometry_msgs::PoseStamped latest = target;
     latest.header.stamp = ros::Time(0);  // the goal's place, with the latest transform
+    tf_source_->drain();
     global = tf_buffer_.transform(latest, global_frame_);
   } catch (const tf2::TransformException& error) {
     const std::string message = "Aborting on goal because it was sent in frame '" + target.header.frame_id +
@@ -215,6 +234,7 @@ bool MoveBaseRos::onMakePlan(nav_msgs::GetPlan::Request& req, nav_msgs::GetPlan:
   }
   Pose2D start, goal;
   std::string error;
+  tf_source_->drain();
   try {
     if (req.start.header.frame_id.empty()) {
       if (!lookupPose(global_frame_, global_base_frame_, ros::Time(0), start, error)) throw tf2::TransformException(error);

@@ -10,16 +10,19 @@
 #include <nav_msgs/GetPlan.h>
 #include <nav_msgs/OccupancyGrid.h>
 #include <nav_msgs/Odometry.h>
+#include <ros/callback_queue.h>
 #include <ros/ros.h>
 #include <sensor_msgs/LaserScan.h>
 #include <std_srvs/Empty.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
 
+#include <atomic>
 #include <deque>
 #include <functional>
 #include <memory>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <marl_mrta/LockstepAck.h>
@@ -32,11 +35,24 @@ namespace nav {
 
 // A tf buffer and the listener that fills it. The node has one of its own; the move_base
 // nodelets of one manager share one (move_base_nodelet.cpp), so that each /tf message is taken
-// in once, by one thread, instead of once per robot.
-struct TransformSource {
-  TransformSource() : listener(buffer, ros::NodeHandle(), true, ros::TransportHints().tcpNoDelay()) {}
-  tf2_ros::Buffer buffer;
-  tf2_ros::TransformListener listener;
+// in once instead of once per robot. The listener's messages wait in a queue of their own, which
+// move_base drains when it needs a transform: in a nodelet graph the simulator's /tf message of
+// a tick is queued before the tick, so the transform is there without handing over to another
+// thread. A thread drains the queue every 10 ms (wall) for whatever needs no lock-step.
+class TransformSource {
+ public:
+  TransformSource();
+  ~TransformSource();
+  tf2_ros::Buffer& buffer() { return buffer_; }
+  // Takes every tf message received so far into the buffer.
+  void drain() { queue_.callAvailable(); }
+
+ private:
+  tf2_ros::Buffer buffer_;
+  ros::CallbackQueue queue_;
+  std::unique_ptr<tf2_ros::TransformListener> listener_;
+  std::atomic<bool> stop_{false};
+  std::thread drainer_;
 };
 
 class MoveBaseRos {
