@@ -34,7 +34,11 @@ foreach(node map_server move_base fake_localization)
   install(TARGETS nav_${node} RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 endforeach()
 # move_base's ROS shell, shared by the node and the nodelet (cmake/nodelets.cmake).
-add_library(${PROJECT_NAME}_move_base_ros src/nav/nodes/move_base_inputs.cpp src/nav/nodes/move_base_ros.cpp)
+add_library(${PROJECT_NAME}_move_base_ros
+  src/nav/nodes/move_base_inputs.cpp
+  src/nav/nodes/move_base_ros.cpp
+  src/nav/nodes/transform_source.cpp
+)
 target_link_libraries(${PROJECT_NAME}_move_base_ros ${PROJECT_NAME}_nav_ros ${PROJECT_NAME}_nav_core ${catkin_LIBRARIES})
 add_dependencies(${PROJECT_NAME}_move_base_ros ${PROJECT_NAME}_generate_messages_cpp ${catkin_EXPORTED_TARGETS})
 target_link_libraries(nav_move_base ${PROJECT_NAME}_move_base_ros)

@@ -1,21 +1,19 @@
 // The `simulator` as a nodelet (marl_mrta/Simulator): the same SimulatorRos as the node, on its
 // own thread and callback queue, so that controllers loaded into the same manager exchange
 // ticks, commands, odometry and scans without sockets (sim.launch nodelets:=true).
-#include <nodelet/nodelet.h>
 #include <pluginlib/class_list_macros.hpp>
-#include <ros/callback_queue.h>
-#include <ros/ros.h>
 
 #include <memory>
 #include <stdexcept>
 #include <thread>
 
+#include "marl_mrta/own_queue_nodelet.h"
 #include "marl_mrta/sim/simulator_ros.h"
 
 namespace marl_mrta {
 namespace sim {
 
-class SimulatorNodelet : public nodelet::Nodelet {
+class SimulatorNodelet : public OwnQueueNodelet {
  public:
   ~SimulatorNodelet() override {
     if (simulator_) simulator_->requestStop();
@@ -24,9 +22,7 @@ class SimulatorNodelet : public nodelet::Nodelet {
 
  private:
   void onInit() override {
-    ros::NodeHandle nh(getNodeHandle()), private_nh(getPrivateNodeHandle());
-    nh.setCallbackQueue(&queue_);
-    private_nh.setCallbackQueue(&queue_);
+    ros::NodeHandle nh = publicHandle(), private_nh = privateHandle();
     try {
       simulator_ = std::make_unique<SimulatorRos>(nh, private_nh);
     } catch (const std::exception& e) {
@@ -39,7 +35,6 @@ class SimulatorNodelet : public nodelet::Nodelet {
     });
   }
 
-  ros::CallbackQueue queue_;
   std::unique_ptr<SimulatorRos> simulator_;
   std::thread loop_;
 };

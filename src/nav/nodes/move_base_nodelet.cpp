@@ -1,17 +1,14 @@
 // The built-in move_base as a nodelet (marl_mrta/MoveBase): the same MoveBaseRos as the node,
-// served by one thread of its own, as ros::spin() serves the node. Its own thread rather than
-// the manager's pool: a callback then costs one thread hand-over instead of two. The nodelets of
-// one manager share a tf buffer.
-#include <nodelet/nodelet.h>
+// served by one thread of its own, as ros::spin() serves the node. The nodelets of one manager
+// share a tf buffer.
 #include <pluginlib/class_list_macros.hpp>
-#include <ros/callback_queue.h>
-#include <ros/ros.h>
 
 #include <memory>
 #include <mutex>
 #include <stdexcept>
 
 #include "marl_mrta/nav/param_tree.h"
+#include "marl_mrta/own_queue_nodelet.h"
 #include "move_base_ros.h"
 
 namespace marl_mrta {
@@ -34,7 +31,7 @@ std::shared_ptr<TransformSource> sharedTransformSource() {
 
 }  // namespace
 
-class MoveBaseNodelet : public nodelet::Nodelet {
+class MoveBaseNodelet : public OwnQueueNodelet {
  public:
   ~MoveBaseNodelet() override {
     if (spinner_) spinner_->stop();
@@ -42,21 +39,19 @@ class MoveBaseNodelet : public nodelet::Nodelet {
 
  private:
   void onInit() override {
-    ros::NodeHandle nh(getNodeHandle()), private_nh(getPrivateNodeHandle());
-    nh.setCallbackQueue(&queue_);
-    private_nh.setCallbackQueue(&queue_);
+    ros::NodeHandle nh = publicHandle(), private_nh = privateHandle();
     try {
       move_base_ = std::make_unique<MoveBaseRos>(nh, private_nh, sharedTransformSource());
     } catch (const ParamError& error) {
       NODELET_FATAL("move_base: %s", error.what());
       throw std::runtime_error(error.what());
     }
-    spinner_ = std::make_unique<ros::AsyncSpinner>(1, &queue_);
+    spinner_ = std::make_unique<ros::AsyncSpinner>(1, &queue());
     spinner_->start();
   }
 
-  // Declared first, destroyed last: the spinner stops before the node it serves goes.
-  ros::CallbackQueue queue_;
+  // Destroyed in reverse: the spinner stops before the node it serves goes (the queue, in the
+  // base, goes last).
   std::unique_ptr<MoveBaseRos> move_base_;
   std::unique_ptr<ros::AsyncSpinner> spinner_;
 };

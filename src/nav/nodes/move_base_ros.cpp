@@ -4,7 +4,6 @@
 #include <nav_msgs/Path.h>
 #include <tf2_geometry_msgs/tf2_geometry_msgs.h>
 
-#include <chrono>
 #include <cmath>
 #include <fstream>
 
@@ -15,23 +14,6 @@ namespace marl_mrta {
 namespace nav {
 
 namespace conv = ros_conversions;
-
-TransformSource::TransformSource() {
-  ros::NodeHandle nh;
-  nh.setCallbackQueue(&queue_);
-  listener_ = std::make_unique<tf2_ros::TransformListener>(buffer_, nh, false, ros::TransportHints().tcpNoDelay());
-  drainer_ = std::thread([this] {
-    while (!stop_ && ros::ok()) {
-      drain();
-      std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    }
-  });
-}
-
-TransformSource::~TransformSource() {
-  stop_ = true;
-  drainer_.join();
-}
 
 MoveBaseRos::MoveBaseRos(ros::NodeHandle& nh, ros::NodeHandle& private_nh, std::shared_ptr<TransformSource> tf)
     : nh_(nh), private_nh_(private_nh), tf_source_(std::move(tf)), tf_buffer_(tf_source_->buffer()),

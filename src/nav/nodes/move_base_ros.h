@@ -1,7 +1,8 @@
 // The move_base node's ROS interface around one MoveBaseCore: the move_base action,
 // move_base_simple/goal, cmd_vel, odom and scan inputs, tf lookups, plan/costmap topics,
 // ~make_plan and ~clear_costmaps, and the simulator's lock-step (ack every SimTick).
-// Inputs, ticks and the control step: move_base_inputs.cpp; the rest: move_base_ros.cpp.
+// Inputs, ticks and the control step: move_base_inputs.cpp; the rest: move_base_ros.cpp;
+// tf: transform_source.h; as a nodelet: move_base_nodelet.cpp.
 #pragma once
 
 #include <actionlib/server/simple_action_server.h>
@@ -10,50 +11,26 @@
 #include <nav_msgs/GetPlan.h>
 #include <nav_msgs/OccupancyGrid.h>
 #include <nav_msgs/Odometry.h>
-#include <ros/callback_queue.h>
 #include <ros/ros.h>
 #include <sensor_msgs/LaserScan.h>
 #include <std_srvs/Empty.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
 
-#include <atomic>
 #include <deque>
 #include <functional>
 #include <memory>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include <marl_mrta/LockstepAck.h>
 #include <marl_mrta/SimTick.h>
 
 #include "marl_mrta/nav/move_base_core.h"
+#include "transform_source.h"
 
 namespace marl_mrta {
 namespace nav {
-
-// A tf buffer and the listener that fills it. The node has one of its own; the move_base
-// nodelets of one manager share one (move_base_nodelet.cpp), so that each /tf message is taken
-// in once instead of once per robot. The listener's messages wait in a queue of their own, which
-// move_base drains when it needs a transform: in a nodelet graph the simulator's /tf message of
-// a tick is queued before the tick, so the transform is there without handing over to another
-// thread. A thread drains the queue every 10 ms (wall) for whatever needs no lock-step.
-class TransformSource {
- public:
-  TransformSource();
-  ~TransformSource();
-  tf2_ros::Buffer& buffer() { return buffer_; }
-  // Takes every tf message received so far into the buffer.
-  void drain() { queue_.callAvailable(); }
-
- private:
-  tf2_ros::Buffer buffer_;
-  ros::CallbackQueue queue_;
-  std::unique_ptr<tf2_ros::TransformListener> listener_;
-  std::atomic<bool> stop_{false};
-  std::thread drainer_;
-};
 
 class MoveBaseRos {
  public:
