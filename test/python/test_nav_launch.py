@@ -103,6 +103,8 @@ def test_evaluation_launch_files_pass_navigation_lockstep_and_noise_on(launch_ar
     # Defaults: built-in (a nodelet in the simulator's manager), lock-step, ideal.
     assert nodes["/tb3_0/move_base"].args == "load marl_mrta/MoveBase /sim_manager"
     assert params["/simulator/lockstep"] is True
+    nodes, _ = load(*launch_args, "nodelets:=false")
+    assert (nodes["/tb3_0/move_base"].package, nodes["/simulator"].package) == ("marl_mrta", "marl_mrta")
     assert params["/simulator/noise_profile"] == "ideal"
     assert params["/simulator/publish_localization"] is True and "/tb3_1/fake_localization" not in nodes
     nodes, params = load(*launch_args, "nav:=stock", "lockstep:=false", "noise_profile:=measured_tb3",
@@ -173,3 +175,6 @@ def test_simulator_localization_replaces_the_fake_localization_nodes():
     # Training on the ROS simulation uses the simulator's localisation.
     nodes, params = load("launch/train.launch", "backend:=ros")
     assert params["/simulator/publish_localization"] is True
+    assert nodes["/arena_1/tb3_1/move_base"].args == "load marl_mrta/MoveBase /sim_manager"
+    nodes, _ = load("launch/train.launch", "backend:=ros", "nodelets:=false")
+    assert nodes["/arena_1/tb3_1/move_base"].package == "marl_mrta"
