@@ -14,7 +14,8 @@ One script, several cases chosen by ``~case``:
              both at the same tick, give the same result times and the same poses to the last bit
              (lock-step runs do not depend on message timing or machine load)
   nodelets   repeat, with the simulator and both move_base loaded as nodelets into /sim_manager
-             (sim.launch nodelets:=true), which must serve their topics itself
+             (sim.launch nodelets:=true), which must serve their topics itself; nothing is
+             logged as an error
 Times are simulation time; waiting is bounded by wall-clock deadlines (a stalled lock-step
 graph fails the test instead of hanging it). Goals of the tour start with the robot at rest on a
 whole simulated second (the simulator paused and stepped there, move_base caught up), so a lock-step
@@ -39,6 +40,7 @@ from actionlib_msgs.msg import GoalStatus
 from geometry_msgs.msg import Pose2D
 from move_base_msgs.msg import MoveBaseAction, MoveBaseActionResult, MoveBaseGoal
 from nav_msgs.msg import Odometry
+from rosgraph_msgs.msg import Log
 from std_srvs.srv import Empty, SetBool
 
 from marl_mrta.msg import CollisionEvent, LockstepAck
@@ -338,12 +340,23 @@ class RepeatTest(NavTest):
 
 
 class NodeletsTest(RepeatTest):
+    @classmethod
+    def setUpClass(cls):
+        super().setUpClass()
+        cls.errors = []
+        rospy.Subscriber("/rosout", Log, lambda m: m.level >= Log.ERROR and cls.errors.append(m.msg), queue_size=100)
+        time.sleep(1.0)  # connected to every node before the goals of the tests
+
     def test_simulator_and_move_base_run_in_the_manager(self):
         publishers = dict(rosgraph.Master(rospy.get_name()).getSystemState()[0])
         self.assertEqual(publishers.get("/simulator/tick"), ["/sim_manager"])
         for ns in self.robots:
             self.assertEqual(publishers.get("/%s/cmd_vel" % ns), ["/sim_manager"], ns)
             self.assertEqual(publishers.get("/%s/move_base/status" % ns), ["/sim_manager"], ns)
+
+    def test_z_nothing_logged_as_an_error(self):  # after the goals of test_twin_robots_drive_identically
+        time.sleep(1.0)
+        self.assertEqual(self.errors, [])
 
 
 class Tb3WorldTest(NavTest):
