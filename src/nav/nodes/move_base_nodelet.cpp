@@ -1,10 +1,8 @@
 // The built-in move_base as a nodelet (marl_mrta/MoveBase): the same MoveBaseRos as the node,
-// served by one thread of its own, as ros::spin() serves the node. The nodelets of one manager
-// share a tf buffer.
+// served by one thread of its own, as ros::spin() serves the node.
 #include <pluginlib/class_list_macros.hpp>
 
 #include <memory>
-#include <mutex>
 #include <stdexcept>
 
 #include "marl_mrta/nav/param_tree.h"
@@ -13,23 +11,6 @@
 
 namespace marl_mrta {
 namespace nav {
-
-namespace {
-
-// One tf buffer and listener for every move_base nodelet of the process, while any is loaded.
-std::shared_ptr<TransformSource> sharedTransformSource() {
-  static std::mutex mutex;
-  static std::weak_ptr<TransformSource> shared;
-  std::lock_guard<std::mutex> lock(mutex);
-  std::shared_ptr<TransformSource> source = shared.lock();
-  if (!source) {
-    source = std::make_shared<TransformSource>();
-    shared = source;
-  }
-  return source;
-}
-
-}  // namespace
 
 class MoveBaseNodelet : public OwnQueueNodelet {
  public:
@@ -41,7 +22,7 @@ class MoveBaseNodelet : public OwnQueueNodelet {
   void onInit() override {
     ros::NodeHandle nh = publicHandle(), private_nh = privateHandle();
     try {
-      move_base_ = std::make_unique<MoveBaseRos>(nh, private_nh, sharedTransformSource());
+      move_base_ = std::make_unique<MoveBaseRos>(nh, private_nh);
     } catch (const ParamError& error) {
       NODELET_FATAL("move_base: %s", error.what());
       throw std::runtime_error(error.what());

@@ -15,8 +15,8 @@ namespace nav {
 
 namespace conv = ros_conversions;
 
-MoveBaseRos::MoveBaseRos(ros::NodeHandle& nh, ros::NodeHandle& private_nh, std::shared_ptr<TransformSource> tf)
-    : nh_(nh), private_nh_(private_nh), tf_source_(std::move(tf)), tf_buffer_(tf_source_->buffer()),
+MoveBaseRos::MoveBaseRos(ros::NodeHandle& nh, ros::NodeHandle& private_nh)
+    : nh_(nh), private_nh_(private_nh), tf_source_(std::make_unique<TransformSource>()), tf_buffer_(tf_source_->buffer()),
       action_server_(nh, "move_base", false) {
   XmlRpc::XmlRpcValue params;
   ros::param::get(private_nh_.getNamespace(), params);

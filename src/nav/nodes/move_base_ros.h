@@ -35,8 +35,7 @@ namespace nav {
 class MoveBaseRos {
  public:
   // Reads and checks every parameter (throws ParamError, one line), warns about unknown ones.
-  MoveBaseRos(ros::NodeHandle& nh, ros::NodeHandle& private_nh,
-              std::shared_ptr<TransformSource> tf = std::make_shared<TransformSource>());
+  MoveBaseRos(ros::NodeHandle& nh, ros::NodeHandle& private_nh);
   ~MoveBaseRos();
 
  private:
@@ -81,7 +80,7 @@ class MoveBaseRos {
 
   ros::NodeHandle nh_, private_nh_;
   std::unique_ptr<MoveBaseCore> core_;
-  std::shared_ptr<TransformSource> tf_source_;
+  std::unique_ptr<TransformSource> tf_source_;
   tf2_ros::Buffer& tf_buffer_;
   actionlib::SimpleActionServer<move_base_msgs::MoveBaseAction> action_server_;
   ros::Publisher cmd_vel_pub_, current_goal_pub_, plan_pub_, local_plan_pub_, global_plan_pub_;

@@ -13,12 +13,12 @@
 namespace marl_mrta {
 namespace nav {
 
-// A tf buffer and the listener that fills it. The node has one of its own; the move_base
-// nodelets of one manager share one (move_base_nodelet.cpp), so that each /tf message is taken
-// in once instead of once per robot. The listener's messages wait in a queue of their own, which
-// move_base drains when it needs a transform: in a nodelet graph the simulator's /tf message of
-// a tick is queued before the tick, so the transform is there without handing over to another
-// thread. A thread drains the queue every 10 ms (wall) for whatever needs no lock-step.
+// A tf buffer and the listener that fills it, one per move_base. The listener's messages wait in
+// a queue of their own, which move_base drains when it needs a transform: in a nodelet graph the
+// simulator's /tf message of a tick is queued before the tick, so the transform is there without
+// handing over to another thread. (A buffer shared by the move_base nodelets of a manager made
+// them wait for each other's draining.) A thread drains the queue every 10 ms (wall) for
+// whatever needs no lock-step.
 class TransformSource {
  public:
   TransformSource();
