@@ -62,20 +62,22 @@ void MoveBaseRos::processTicks() {
 }
 
 bool MoveBaseRos::pollUntil(const std::function<bool()>& done) const {
-  // Inputs of a tick arrive on other connections and threads (roscpp's clock thread, the tf
-  // listener), bounded in wall time. That thread usually has only to be scheduled: yielding to
-  // it first goes on as soon as it has run, where a first sleep of 0.1 ms made the controllers
-  // of a nodelet graph wait for a fifth of its wall time; a longer wait sleeps.
+  // Inputs of a tick arrive on other threads (roscpp's clock thread) or connections (tf from
+  // other processes), bounded in wall time. The thread that brings one usually has only to be
+  // scheduled: yielding to it first goes on as soon as it has run, where a first sleep of 0.1 ms
+  // (0.15-0.2 ms in practice) made the controllers of a nodelet graph wait for a fifth of its
+  // wall time; a longer wait sleeps.
+  constexpr int kYieldsBeforeSleeping = 200;
+  const ros::WallDuration sleep(0.0001);
   if (done()) return true;
   const ros::WallTime start = ros::WallTime::now(), deadline = start + ros::WallDuration(tf_wait_);
   bool ok = true;
-  int spins = 0;
-  while (!done()) {
+  for (int round = 0; !done(); ++round) {
     if (ros::WallTime::now() > deadline || !ros::ok()) {
       ok = false;
       break;
     }
-    if (++spins < 200) std::this_thread::yield(); else ros::WallDuration(0.0001).sleep();
+    if (round < kYieldsBeforeSleeping) std::this_thread::yield(); else sleep.sleep();
   }
   ++input_waits_;
   input_wait_seconds_ += (ros::WallTime::now() - start).toSec();
