@@ -178,3 +178,27 @@ def test_simulator_localization_replaces_the_fake_localization_nodes():
     assert nodes["/arena_1/tb3_1/move_base"].args == "load marl_mrta/MoveBase /sim_manager"
     nodes, _ = load("launch/train.launch", "backend:=ros", "nodelets:=false")
     assert nodes["/arena_1/tb3_1/move_base"].package == "marl_mrta"
+
+
+def test_train_launch_derives_the_managers_mask_without_torch():
+    # roslaunch runs on the system Python, which need not have torch (here it lives in the venv):
+    # the preset's action_mask must be read without it, or the managers silently get 'logic'.
+    import subprocess
+    import sys
+    script = (
+        "import sys, os\n"
+        "class NoTorch:\n"
+        "    def find_spec(self, name, path=None, target=None):\n"
+        "        if name == 'torch' or name.startswith('torch.'):\n"
+        "            raise ImportError('no torch here')\n"
+        "sys.meta_path.insert(0, NoTorch())\n"
+        "import roslaunch\n"
+        "config = roslaunch.config.load_config_default([(sys.argv[1], ['roslaunch', 'backend:=ros', "
+        "'preset:=sequential'])], None, verbose=False)\n"
+        "print(sorted(set(p.value for k, p in config.params.items() if k.endswith('/mask'))))\n")
+    out = subprocess.run([sys.executable, "-c", script, os.path.join(REPO, "launch", "train.launch")],
+                         capture_output=True, text=True, timeout=120,
+                         env=dict(os.environ, PYTHONPATH=os.path.join(REPO, "src") + os.pathsep +
+                                  os.environ.get("PYTHONPATH", "")))
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.strip().splitlines()[-1] == "['finished']"

@@ -19,8 +19,6 @@ from typing import Sequence
 
 import torch
 
-DECISION_ORDERS = ("simultaneous", "sequential", "sequential_logic")
-
 
 def is_sequential(decision_order: str) -> bool:
     return decision_order != "simultaneous"

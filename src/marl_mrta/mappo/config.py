@@ -14,10 +14,13 @@ from pathlib import Path
 from typing import Any, Dict, Optional, Tuple, Union
 
 from ..env.settings import MASK_MODES
-from .claims import DECISION_ORDERS
 from ..tasks.config_reader import package_root
 from ..tasks.reward import REWARD_SCHEMA
 from ..yaml_file import YamlFileError, load_yaml_file
+
+# How the robots of a step decide (claims.py). Here, so that reading settings needs no torch
+# (launch/train.launch derives the task managers' mask from a preset under roslaunch's Python).
+DECISION_ORDERS = ("simultaneous", "sequential", "sequential_logic")
 
 
 def preset_dir() -> Path:
