@@ -6,7 +6,7 @@ add_library(${PROJECT_NAME}_nodelets
 )
 target_link_libraries(${PROJECT_NAME}_nodelets ${PROJECT_NAME}_sim_ros ${PROJECT_NAME}_move_base_ros ${catkin_LIBRARIES})
 add_dependencies(${PROJECT_NAME}_nodelets ${PROJECT_NAME}_generate_messages_cpp ${catkin_EXPORTED_TARGETS})
-install(TARGETS ${PROJECT_NAME}_nodelets ${PROJECT_NAME}_sim_ros
+install(TARGETS ${PROJECT_NAME}_nodelets
   ARCHIVE DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
   LIBRARY DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
   RUNTIME DESTINATION ${CATKIN_GLOBAL_BIN_DESTINATION})

@@ -31,7 +31,7 @@ add_executable(bench_sim_sink src/sim/bench_sim_sink.cpp)
 add_dependencies(bench_sim_sink ${PROJECT_NAME}_generate_messages_cpp ${catkin_EXPORTED_TARGETS})
 target_link_libraries(bench_sim_sink ${catkin_LIBRARIES})
 
-install(TARGETS bench_sim_core bench_sim_sink ${PROJECT_NAME}_sim_core simulator
+install(TARGETS bench_sim_core bench_sim_sink ${PROJECT_NAME}_sim_core ${PROJECT_NAME}_sim_ros simulator
   ARCHIVE DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
   LIBRARY DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
   RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION}
