@@ -1,15 +1,13 @@
 #include "marl_mrta/nav/inflation_layer.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdlib>
 
 #include "marl_mrta/nav/layered_costmap.h"
 
 namespace marl_mrta {
 namespace nav {
-
-namespace {
-inline unsigned absDiff(unsigned a, unsigned b) { return a > b ? a - b : b - a; }
-}  // namespace
 
 InflationLayer::InflationLayer(std::string name, const InflationLayerConfig& config)
     : Layer(std::move(name)), config_(config) {}
@@ -61,21 +59,36 @@ void InflationLayer::reinflate(const CellWindow& region, unsigned size_x, unsign
   const int min_x = std::max(0, region.min_x - r), min_y = std::max(0, region.min_y - r);
   const int max_x = std::min(static_cast<int>(size_x), region.max_x + r);
   const int max_y = std::min(static_cast<int>(size_y), region.max_y + r);
-  for (int y = min_y; y < max_y; ++y) {
-    const unsigned row = static_cast<unsigned>(y) * size_x;
-    std::fill(best_sq_.begin() + row + min_x, best_sq_.begin() + row + max_x, kUnqueued);
-    for (int x = min_x; x < max_x; ++x) {
-      if (!lethal_[row + x]) continue;
-      best_sq_[row + x] = 0;
-      bins_[0].push_back({row + x, unsigned(x), unsigned(y), unsigned(x), unsigned(y)});
-    }
-  }
   for (int y = region.min_y; y < region.max_y; ++y) {
     const unsigned row = static_cast<unsigned>(y) * size_x;
     std::fill(field_.begin() + row + region.min_x, field_.begin() + row + region.max_x, 0);
   }
+  const auto inside = [&](int x, int y) {
+    return x >= region.min_x && x < region.max_x && y >= region.min_y && y < region.max_y;
+  };
+  for (int y = min_y; y < max_y; ++y) {
+    const unsigned row = static_cast<unsigned>(y) * size_x;
+    std::fill(best_sq_.begin() + row + min_x, best_sq_.begin() + row + max_x, kUnqueued);
+  }
+  for (int y = min_y; y < max_y; ++y) {
+    const unsigned row = static_cast<unsigned>(y) * size_x;
+    for (int x = min_x; x < max_x; ++x) {
+      const unsigned index = row + x;
+      if (!lethal_[index]) continue;
+      best_sq_[index] = 0;
+      // A source whose neighbours in the window are all sources spreads nothing: its own cost
+      // is all it gives.
+      const bool spreads = (x > min_x && !lethal_[index - 1]) || (x + 1 < max_x && !lethal_[index + 1]) ||
+                           (y > min_y && !lethal_[index - size_x]) || (y + 1 < max_y && !lethal_[index + size_x]);
+      if (spreads) {
+        bins_[0].push_back({index, uint32_t(x), uint32_t(y), 0, 0});
+      } else if (inside(x, y)) {
+        field_[index] = kLethalObstacle;
+      }
+    }
+  }
   const unsigned table = cell_inflation_radius_ + 2;
-  const unsigned radius = cell_inflation_radius_, radius_sq = radius * radius;
+  const int radius = r, radius_sq = r * r;
   // Raw pointers: the queues' growth cannot move these arrays, so they need no reloading.
   uint32_t* const best_sq = best_sq_.data();
   uint8_t* const field = field_.data();
@@ -87,13 +100,12 @@ void InflationLayer::reinflate(const CellWindow& region, unsigned size_x, unsign
   // order it was filled; a cell takes its first entry in the lowest bin. So an entry that
   // cannot come first is never queued: one at or above the cell's best queued distance, or
   // one below the bin being taken (costmap_2d drops those as well).
-  auto enqueue = [&](unsigned index, unsigned x, unsigned y, unsigned src_x, unsigned src_y) {
-    const unsigned dx = absDiff(x, src_x), dy = absDiff(y, src_y);
-    if (dx > radius || dy > radius) return;
-    const unsigned sq = dx * dx + dy * dy;
-    if (sq > radius_sq || sq >= best_sq[index] || sq < bin) return;
+  auto enqueue = [&](unsigned index, int x, int y, int dx, int dy) {
+    if (dx > radius || dx < -radius || dy > radius || dy < -radius) return;
+    const unsigned sq = static_cast<unsigned>(dx * dx + dy * dy);
+    if (sq > static_cast<unsigned>(radius_sq) || sq >= best_sq[index] || sq < bin) return;
     best_sq[index] = sq;
-    bins[sq].push_back({index, x, y, src_x, src_y});
+    bins[sq].push_back({index, uint32_t(x), uint32_t(y), int16_t(dx), int16_t(dy)});
   };
   for (; bin < n_bins; ++bin) {
     // Cells appended to this bin while it is taken keep the distance order.
@@ -101,14 +113,12 @@ void InflationLayer::reinflate(const CellWindow& region, unsigned size_x, unsign
     for (size_t k = 0; k < queue.size(); ++k) {
       const CellData cell = queue[k];
       if (best_sq[cell.index] != bin) continue;  // the cell has an entry in a lower bin
-      const int x = static_cast<int>(cell.x), y = static_cast<int>(cell.y);
-      if (x >= region.min_x && x < region.max_x && y >= region.min_y && y < region.max_y) {
-        field[cell.index] = costs_by_offset[absDiff(cell.x, cell.src_x) * table + absDiff(cell.y, cell.src_y)];
-      }
-      if (x > min_x) enqueue(cell.index - 1, cell.x - 1, cell.y, cell.src_x, cell.src_y);
-      if (y > min_y) enqueue(cell.index - size_x, cell.x, cell.y - 1, cell.src_x, cell.src_y);
-      if (x + 1 < max_x) enqueue(cell.index + 1, cell.x + 1, cell.y, cell.src_x, cell.src_y);
-      if (y + 1 < max_y) enqueue(cell.index + size_x, cell.x, cell.y + 1, cell.src_x, cell.src_y);
+      const int x = cell.x, y = cell.y, dx = cell.dx, dy = cell.dy;
+      if (inside(x, y)) field[cell.index] = costs_by_offset[std::abs(dx) * table + std::abs(dy)];
+      if (x > min_x) enqueue(cell.index - 1, x - 1, y, dx - 1, dy);
+      if (y > min_y) enqueue(cell.index - size_x, x, y - 1, dx, dy - 1);
+      if (x + 1 < max_x) enqueue(cell.index + 1, x + 1, y, dx + 1, dy);
+      if (y + 1 < max_y) enqueue(cell.index + size_x, x, y + 1, dx, dy + 1);
     }
     queue.clear();
   }

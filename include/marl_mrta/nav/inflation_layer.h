@@ -7,6 +7,7 @@
 // and rewrites the master where the field changed or the other layers wrote.
 #pragma once
 
+#include <cstdint>
 #include <vector>
 
 #include "marl_mrta/nav/layer.h"
@@ -37,7 +38,8 @@ class InflationLayer : public Layer {
 
  private:
   struct CellData {
-    unsigned index, x, y, src_x, src_y;
+    uint32_t index, x, y;  // the cell
+    int16_t dx, dy;        // from the source it inherits (|dx|, |dy| <= the radius in cells)
   };
   void computeCaches();
   // Recomputes field_ inside `region` from the lethal cells within one radius of it.

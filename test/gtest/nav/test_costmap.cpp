@@ -3,6 +3,8 @@
 
 #include <cmath>
 #include <limits>
+#include <random>
+#include <set>
 
 #include "marl_mrta/nav/costmap_config.h"
 #include "marl_mrta/nav/inflation_layer.h"
@@ -325,6 +327,79 @@ TEST(LayeredCostmap, IncrementalUpdatesEqualAFullRecomputation) {
     const std::vector<uint8_t> incremental = costmap.costmap().cells();
     inflation->reset();  // next update recomputes every cell
     costmap.updateMap(robot);
+    ASSERT_EQ(incremental, costmap.costmap().cells()) << "after step " << step;
+  }
+}
+
+namespace {
+// Test double: marks a set of cells lethal and asks for the area around the cells it changed.
+class MarkedCellsLayer : public Layer {
+ public:
+  MarkedCellsLayer() : Layer("marked_cells") {}
+  void mark(std::set<std::pair<unsigned, unsigned>> cells) {
+    changed_.insert(marked_.begin(), marked_.end());
+    changed_.insert(cells.begin(), cells.end());
+    marked_ = std::move(cells);
+  }
+  void updateBounds(const Pose2D&, Bounds& bounds) override {
+    for (const auto& cell : changed_) {
+      bounds.touch(origin_x_ + cell.first * resolution_, origin_y_ + cell.second * resolution_);
+      bounds.touch(origin_x_ + (cell.first + 0.999) * resolution_, origin_y_ + (cell.second + 0.999) * resolution_);
+    }
+    changed_.clear();
+  }
+  void updateCosts(CostGrid& master, const CellWindow& window) override {
+    for (const auto& cell : marked_) {
+      const int x = static_cast<int>(cell.first), y = static_cast<int>(cell.second);
+      if (x >= window.min_x && x < window.max_x && y >= window.min_y && y < window.max_y) {
+        master.setCost(cell.first, cell.second, kLethalObstacle);
+      }
+    }
+  }
+  void matchSize(const LayeredCostmap& master) override {
+    resolution_ = master.costmap().resolution();
+    origin_x_ = master.costmap().originX();
+    origin_y_ = master.costmap().originY();
+  }
+
+ private:
+  std::set<std::pair<unsigned, unsigned>> marked_, changed_;
+  double resolution_ = 0.05, origin_x_ = 0.0, origin_y_ = 0.0;
+};
+}  // namespace
+
+TEST(LayeredCostmap, IncrementalUpdatesEqualAFullRecomputationForScatteredChanges) {
+  // Changes in several far-apart places of one update are re-inflated as separate boxes; wall
+  // hits next to a wall, lone cells, clusters and cells that come and go all give the field a
+  // full recomputation gives.
+  const auto m = roomMap(200, 140, {{50, 30, 56, 36}, {120, 80, 140, 84}, {160, 20, 162, 110}});
+  LayeredCostmap costmap(false, false);
+  costmap.setFootprint(padFootprint(burgerFootprint(), 0.01));
+  auto static_layer = std::make_unique<StaticLayer>("static_layer", StaticLayerConfig{}, costmap);
+  static_layer->setMap(m);
+  costmap.addLayer(std::move(static_layer));
+  auto marked_layer = std::make_unique<MarkedCellsLayer>();
+  MarkedCellsLayer* marked = marked_layer.get();
+  costmap.addLayer(std::move(marked_layer));
+  auto inflation_layer = std::make_unique<InflationLayer>("inflation_layer", InflationLayerConfig{1.0, 3.0, false});
+  InflationLayer* inflation = inflation_layer.get();
+  costmap.addLayer(std::move(inflation_layer));
+  costmap.updateMap(Pose2D{});
+  std::mt19937 random(7);
+  std::uniform_int_distribution<unsigned> x_of(1, 198), y_of(1, 138), count_of(0, 12);
+  for (int step = 0; step < 40; ++step) {
+    std::set<std::pair<unsigned, unsigned>> cells;
+    for (unsigned k = count_of(random); k > 0; --k) cells.insert({x_of(random), y_of(random)});
+    for (unsigned y = 10; y < 130; y += 7) {
+      if ((y + step) % 3 == 0) cells.insert({1, y});  // beside the left wall, on and off
+    }
+    if (step % 2 == 0) cells.insert({80 + step, 60});  // a moving block
+    if (step % 2 == 0) cells.insert({81 + step, 60});
+    marked->mark(cells);
+    costmap.updateMap(Pose2D{});
+    const std::vector<uint8_t> incremental = costmap.costmap().cells();
+    inflation->reset();
+    costmap.updateMap(Pose2D{});
     ASSERT_EQ(incremental, costmap.costmap().cells()) << "after step " << step;
   }
 }
