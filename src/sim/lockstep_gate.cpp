@@ -24,6 +24,22 @@ bool LockstepGate::ackReceived(int robot, uint64_t tick, uint64_t cmd_vel_count,
   return true;
 }
 
+void GoalEndWatch::start(std::vector<int> robots, uint64_t start_tick, uint64_t align) {
+  robots_ = std::move(robots);
+  start_tick_ = start_tick;
+  align_ = std::max<uint64_t>(align, 1);
+}
+
+uint64_t GoalEndWatch::pauseTick() const {
+  if (robots_.empty()) return 0;
+  uint64_t last = 0;
+  for (int robot : robots_) {
+    if (end_tick_[robot] <= start_tick_) return 0;
+    last = std::max(last, end_tick_[robot]);
+  }
+  return (last + align_ - 1) / align_ * align_;
+}
+
 bool LockstepGate::answered(uint64_t tick) const { return missing(tick).empty(); }
 
 std::vector<int> LockstepGate::missing(uint64_t tick) const {

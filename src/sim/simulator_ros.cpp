@@ -76,6 +76,7 @@ void SimulatorRos::advertise(ros::NodeHandle& nh, ros::NodeHandle& private_nh) {
     lockstep[g] = config_.lockstep && (listed.empty() || std::find(listed.begin(), listed.end(), names[g]) != listed.end());
   }
   lockstep_ = std::make_unique<LockstepGate>(lockstep);
+  goal_ends_ = std::make_unique<GoalEndWatch>(robots_.size());
   clock_pub_ = nh.advertise<rosgraph_msgs::Clock>("/clock", 10);
   tick_pub_ = private_nh.advertise<marl_mrta::SimTick>("tick", 100);
   collisions_pub_ = private_nh.advertise<marl_mrta::CollisionEvent>("collisions", 100);
@@ -97,6 +98,7 @@ void SimulatorRos::onCmdVel(size_t robot, const geometry_msgs::Twist::ConstPtr& 
 
 void SimulatorRos::onLockstepAck(const marl_mrta::LockstepAck::ConstPtr& msg) {
   const auto found = std::find_if(robots_.begin(), robots_.end(), [&](const RobotIo& io) { return io.ns == msg->robot; });
+  if (found != robots_.end()) goal_ends_->goalEnded(static_cast<int>(found - robots_.begin()), msg->goal_end_tick);
   if (found == robots_.end() ||
       !lockstep_->ackReceived(static_cast<int>(found - robots_.begin()), msg->tick, msg->cmd_vel_count,
                               firstTickAtOrAfter(msg->next_stamp), world_->tick())) {
@@ -133,6 +135,7 @@ void SimulatorRos::setPaused(bool paused) {
 bool SimulatorRos::onPause(std_srvs::SetBool::Request& req, std_srvs::SetBool::Response& res) {
   setPaused(req.data);
   run_until_tick_ = 0;
+  goal_ends_->clear();
   res.success = true;
   res.message = (paused_ ? "paused at tick " : "running from tick ") + std::to_string(world_->tick());
   return true;
@@ -148,6 +151,16 @@ bool SimulatorRos::onStep(marl_mrta::StepSim::Request& req, marl_mrta::StepSim::
 }
 
 bool SimulatorRos::onRunUntil(marl_mrta::RunSim::Request& req, marl_mrta::RunSim::Response& res) {
+  std::vector<int> watched;
+  for (const std::string& ns : req.until_goals_end_of) {
+    const auto found = std::find_if(robots_.begin(), robots_.end(), [&](const RobotIo& io) { return io.ns == ns; });
+    if (found == robots_.end()) {
+      ROS_ERROR("run_until: until_goals_end_of: no robot '%s'", ns.c_str());
+      return false;
+    }
+    watched.push_back(static_cast<int>(found - robots_.begin()));
+  }
+  goal_ends_->start(std::move(watched), world_->tick(), req.align_ticks);
   run_until_tick_ = req.until_tick;
   setPaused(req.until_tick <= world_->tick());
   res.tick = world_->tick();
@@ -238,10 +251,17 @@ int SimulatorRos::run() {
   ros::WallTime tick_sent = timing_.start, tick_stepped = timing_.start;
   while (ros::ok() && !stop_requested_) {
     queue.callAvailable();
+    if (goal_ends_->active() && goal_ends_->pauseTick() > 0) {
+      // The ack of the tick on which the last watched goal ended came before this tick's step.
+      const uint64_t tick = goal_ends_->pauseTick();
+      run_until_tick_ = run_until_tick_ > 0 ? std::min(run_until_tick_, tick) : tick;
+      goal_ends_->clear();
+    }
     if (config_.stop_after > 0.0 && world_->time() >= config_.stop_after - 1e-9) break;
     if (!paused_ && run_until_tick_ > 0 && world_->tick() >= run_until_tick_) {
       setPaused(true);  // on ~run_until's tick, before any later one
       run_until_tick_ = 0;
+      goal_ends_->clear();
     }
     if (paused_) {
       queue.callAvailable(ros::WallDuration(0.05));

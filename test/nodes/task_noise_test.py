@@ -3,9 +3,18 @@
 profile (0.19 m/s for 0.22, pauses, lidar dropout, latency). The episode completes in precedence
 order, the result file names the simulator's profile, and the makespan is longer than the plan's
 nominal one by more than the ideal simulation's few tenths of a second (46.7 s for 46.13 s):
-a simulator that ignored the profile would fail here. Nothing here asserts speed."""
+a simulator that ignored the profile would fail here.
+
+The test starts tasks.launch itself, twice: the second launch runs while two busy-looping
+processes load the machine, and its episode must be the first one's, to the bit. Noise draws
+count ticks, so a decision step that started a tick later (a pause that landed late under load)
+would show. Nothing here asserts speed."""
 import json
 import os
+import shutil
+import signal
+import subprocess
+import sys
 import tempfile
 import unittest
 
@@ -18,18 +27,55 @@ from marl_mrta.ros.env_client import RosTaskEnvClient
 MANAGER = "/rl_task_allocation_manager"
 
 
+def stop(process, timeout=30.0):
+    """SIGINT to the process group (what Ctrl-C does to roslaunch), then SIGKILL."""
+    if process.poll() is not None:
+        return
+    os.killpg(process.pid, signal.SIGINT)
+    try:
+        process.wait(timeout)
+    except subprocess.TimeoutExpired:
+        os.killpg(process.pid, signal.SIGKILL)
+        process.wait()
+
+
+def episodes(data):
+    """What the episodes did: everything but wall time and the chart's file name."""
+    return [{key: value for key, value in result.items() if key not in ("seconds", "gantt")}
+            for result in data["results"]]
+
+
 class TaskNoiseTest(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
         rospy.init_node("task_noise_test")
-        RosTaskEnvClient(MANAGER, wait_wall=240.0)   # the manager is up
+        cls.tmp = tempfile.mkdtemp(prefix="task_noise_")
 
-    def test_exact_schedule_under_real_robot_noise(self):
-        out = os.path.join(tempfile.mkdtemp(), "exact_noise.json")
-        code = evaluate_main(["--executor", "ros", "--method", "exact", "--episodes", "1", "--out", out, "--quiet"])
-        self.assertEqual(code, 0)
+    @classmethod
+    def tearDownClass(cls):
+        shutil.rmtree(cls.tmp, ignore_errors=True)
+
+    def evaluate_in_new_launch(self, tag):
+        """Starts tasks.launch (lab_2r, measured_tb3), runs one exact episode, stops the launch."""
+        log = open(os.path.join(self.tmp, tag + ".log"), "w")
+        launch = subprocess.Popen(
+            ["roslaunch", "marl_mrta", "tasks.launch", "noise_profile:=measured_tb3",
+             "scenario:=" + os.path.join(rospy.get_param("~scenarios"), "lab_2r.xml")],
+            stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+        try:
+            RosTaskEnvClient(MANAGER, wait_wall=240.0)   # the manager is up
+            out = os.path.join(self.tmp, tag + ".json")
+            code = evaluate_main(["--executor", "ros", "--method", "exact", "--episodes", "1", "--out", out,
+                                  "--quiet"])
+        finally:
+            stop(launch)
+            log.close()
+        self.assertEqual(code, 0, "%s: evaluate failed, log: %s" % (tag, log.name))
         with open(out) as f:
-            data = json.load(f)
+            return json.load(f)
+
+    def test_exact_schedule_under_real_robot_noise_repeats_under_load(self):
+        data = self.evaluate_in_new_launch("idle")
         self.assertEqual(data["profile"], "measured_tb3")
         summary = data["results"][0]["summary"]
         self.assertEqual(summary["complete_pct"], 100.0)
@@ -39,6 +85,15 @@ class TaskNoiseTest(unittest.TestCase):
         self.assertGreater(summary["makespan_mean"], 1.05 * nominal, summary)
         rospy.loginfo("task_noise: exact plan %.2f s nominal, %.2f s under measured_tb3",
                       nominal, summary["makespan_mean"])
+
+        busy = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(2)]
+        try:
+            loaded = self.evaluate_in_new_launch("loaded")
+        finally:
+            for process in busy:
+                process.kill()
+                process.wait()
+        self.assertEqual(episodes(loaded), episodes(data), "the episode under load differs")
 
 
 if __name__ == "__main__":

@@ -2,6 +2,8 @@
 // node's loop, ROS-free (wall time is passed in) so that both are unit-tested.
 #pragma once
 
+#include <algorithm>
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -32,6 +34,27 @@ class LockstepGate {
   std::vector<int64_t> acked_tick_;
   std::vector<uint64_t> acked_commands_;
   std::vector<uint64_t> next_tick_;  // first tick the robot's controller answers again
+};
+
+// ~run_until's early stop when goals end: the tick to pause on once every watched robot's
+// controller has reported a goal ended on a tick after the watch started (the first multiple of
+// `align` at or after the last such tick).
+class GoalEndWatch {
+ public:
+  explicit GoalEndWatch(std::size_t robots) : end_tick_(robots, 0) {}
+
+  // From every ack: the tick on which the robot's controller last ended a goal (0: none).
+  void goalEnded(int robot, uint64_t tick) { end_tick_[robot] = std::max(end_tick_[robot], tick); }
+  void start(std::vector<int> robots, uint64_t start_tick, uint64_t align);
+  void clear() { robots_.clear(); }
+  bool active() const { return !robots_.empty(); }
+  // 0 while a watched robot has not ended a goal since the start (or nothing is watched).
+  uint64_t pauseTick() const;
+
+ private:
+  std::vector<uint64_t> end_tick_;
+  std::vector<int> robots_;
+  uint64_t start_tick_ = 0, align_ = 1;
 };
 
 // Real-time pacing: with rtf > 0, the step to tick T+1 is due rtf times faster than sim time

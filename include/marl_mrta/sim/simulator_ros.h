@@ -81,6 +81,7 @@ class SimulatorRos {
   std::vector<geometry_msgs::TransformStamped> transforms_;
   marl_mrta::SimTick last_tick_;  // re-sent while lock-step answers are missing
   std::unique_ptr<LockstepGate> lockstep_;
+  std::unique_ptr<GoalEndWatch> goal_ends_;  // ~run_until's until_goals_end_of
   std::unique_ptr<RealTimePacer> pacer_;
   ros::CallbackQueue* queue_;
   std::atomic<bool> stop_requested_{false};

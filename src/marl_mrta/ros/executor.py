@@ -111,8 +111,10 @@ class RosExecutor:
             wait_wall(lambda: all(self.bases[i].accepted for i in pending), self.settings.simulator_lost_after,
                       lambda: "move_base of " + ", ".join(self.namespaces[i] for i in pending
                                                           if not self.bases[i].accepted) + " did not take its goal")
-            self._run_until(deadline)
-            self.clock.wait_until(lambda: all(self.bases[i].result is not None for i in pending), deadline)
+            watched = [i for i in pending if self.bases[i].result is None and self._reports_goal_ends(i)]
+            self._run_until(deadline, watched)
+            if self.clock.wait_until(lambda: all(self.bases[i].result is not None for i in pending), deadline):
+                self._await_early_pause(watched, deadline)
             self._pause(True)
             self.sim.wait_caught_up(*self.sim.step(0))   # every controller has seen the last tick
             self._await_deadline_results(pending)
@@ -164,11 +166,32 @@ class RosExecutor:
         if not self.shared_clock:
             self.sim.pause(paused)
 
-    def _run_until(self, stamp: float) -> None:
+    def _run_until(self, stamp: float, watched: Sequence[int] = ()) -> None:
         """Lets sim time run (lock-step as configured) to the first tick at or after `stamp`,
-        where the simulator pauses by itself; on a shared clock time runs anyway."""
+        where the simulator pauses by itself; on a shared clock time runs anyway. With `watched`
+        robots it pauses earlier, on the first aligned tick after the last of their goals ended."""
         if not self.shared_clock:
-            self.sim.run_until(int(math.ceil(stamp * self.sim.config.physics_rate - 1e-6)))
+            self.sim.run_until(int(math.ceil(stamp * self.sim.config.physics_rate - 1e-6)),
+                               [self.namespaces[i] for i in watched], self._align_ticks())
+
+    def _reports_goal_ends(self, robot: int) -> bool:
+        """The robot's move_base answers the lock-step, so the simulator sees its goals end."""
+        return not self.shared_clock and self.sim.config.answers_lockstep(self.namespaces[robot])
+
+    def _align_ticks(self) -> int:
+        return max(1, int(round(self.settings.align_period * self.sim.config.physics_rate)))
+
+    def _await_early_pause(self, watched: Sequence[int], deadline: float) -> None:
+        """Every goal has ended: when the simulator watches them (run_until), waits until it has
+        paused by itself on the aligned tick after the last end, the tick it reached whatever the
+        load; a pause requested now would land a varying number of ticks later."""
+        if not watched:
+            return
+        rate = self.sim.config.physics_rate
+        align = self._align_ticks()
+        last_end = max(int(round(self.bases[i].result.stamp * rate)) for i in watched)
+        pause_stamp = int(math.ceil(last_end / align)) * align / rate
+        self.clock.wait_until(lambda: self.clock.now() >= pause_stamp - 1e-9, deadline)
 
     def _await_deadline_results(self, pending: Sequence[int]) -> None:
         """A goal that ended on the last tick: move_base sent its result before its answer to
@@ -198,7 +221,7 @@ class RosExecutor:
         every controller and the ground truth have caught up. Returns the sim time."""
         tick, stamp = self.sim.step(0)
         rate = self.sim.config.physics_rate
-        period = max(1, int(round(self.settings.align_period * rate))) if align else 1
+        period = self._align_ticks() if align else 1
         ticks = (period - tick % period) % period
         if ticks == 0 and not self.sim.has_state(tick, stamp):
             ticks = period   # this tick's state went out before this node listened (start-up)

@@ -138,9 +138,13 @@ class SimulatorLink:
                                 f"{SIMULATOR}/step {ticks}")
         return int(response.tick), response.stamp.to_sec()
 
-    def run_until(self, tick: int) -> None:
-        """Resumes a paused simulator, which pauses again by itself once `tick` is published."""
-        call_bounded(lambda: self._run_until(tick), self.answer_wall, f"{SIMULATOR}/run_until {tick}")
+    def run_until(self, tick: int, goals_end_of: Sequence[str] = (), align_ticks: int = 0) -> None:
+        """Resumes a paused simulator, which pauses again by itself once `tick` is published, or
+        earlier: on the first multiple of `align_ticks` at or after the tick on which the last of
+        the robots `goals_end_of` ended a goal (their lock-step controllers report it)."""
+        call_bounded(lambda: self._run_until(until_tick=tick, until_goals_end_of=list(goals_end_of),
+                                             align_ticks=align_ticks),
+                     self.answer_wall, f"{SIMULATOR}/run_until {tick}")
 
     def reset(self, poses: Sequence[Tuple[float, float, float]]) -> None:
         """This arena's robots to `poses` (map frame), which become their start poses."""

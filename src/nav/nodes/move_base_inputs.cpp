@@ -47,7 +47,9 @@ void MoveBaseRos::processTicks() {
       last_tick_time_ = tick.stamp;
       if (control) {
         last_control_period_ = period_index;
+        tick_in_progress_ = static_cast<int64_t>(tick.tick);
         controlStep(tick.stamp, tick.stamp);
+        tick_in_progress_ = -1;
       }
       last_acked_tick_ = static_cast<int64_t>(tick.tick);
     }
@@ -55,6 +57,7 @@ void MoveBaseRos::processTicks() {
     // answers before the next controller period (docs/simulator.md, lock-step protocol).
     ack_.tick = tick.tick;
     ack_.cmd_vel_count = cmd_vel_count_;
+    ack_.goal_end_tick = goal_end_tick_;
     ack_.next_stamp.fromSec((static_cast<double>(period_index) + 1.0 - 1e-6) * control_period_);
     ack_pub_.publish(ack_);
     pending_ticks_.pop_front();

@@ -111,6 +111,7 @@ void MoveBaseRos::onGoal() {
     ROS_ERROR("move_base: %s", problem.c_str());
     core_->cancel();
     publishCommand({});
+    endGoal();
     action_server_.setAborted(move_base_msgs::MoveBaseResult(),
                               "Aborting on goal because it was sent with an invalid quaternion");
     return;
@@ -127,6 +128,7 @@ void MoveBaseRos::onGoal() {
     ROS_ERROR("move_base: %s", message.c_str());
     core_->cancel();
     publishCommand({});
+    endGoal();
     action_server_.setAborted(move_base_msgs::MoveBaseResult(), message);
     return;
   }
@@ -134,11 +136,18 @@ void MoveBaseRos::onGoal() {
   current_goal_pub_.publish(global);
 }
 
+void MoveBaseRos::endGoal() {
+  // Between ticks (a goal refused or cancelled) it counts on the last tick answered.
+  const int64_t tick = tick_in_progress_ >= 0 ? tick_in_progress_ : last_acked_tick_;
+  goal_end_tick_ = static_cast<uint64_t>(std::max<int64_t>(tick, 0));
+}
+
 void MoveBaseRos::onPreempt() {
   if (action_server_.isNewGoalAvailable()) return;  // onGoal takes over without stopping
   if (!action_server_.isActive()) return;
   core_->cancel();
   publishCommand({});
+  endGoal();
   action_server_.setPreempted();
 }
 
@@ -178,10 +187,12 @@ void MoveBaseRos::publishOutputs(const CycleOutput& out, const Pose2D& pose, con
   switch (out.outcome) {
     case CycleOutput::Outcome::kSucceeded:
       ROS_INFO("move_base: %s", out.message.c_str());
+      endGoal();
       action_server_.setSucceeded(move_base_msgs::MoveBaseResult(), out.message);
       break;
     case CycleOutput::Outcome::kAborted:
       ROS_ERROR("move_base: %s", out.message.c_str());
+      endGoal();
       action_server_.setAborted(move_base_msgs::MoveBaseResult(), out.message);
       break;
     case CycleOutput::Outcome::kNone: {

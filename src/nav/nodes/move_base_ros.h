@@ -55,6 +55,8 @@ class MoveBaseRos {
 
   void onGoal();
   void onPreempt();
+  // Before sending a goal's result: the tick the lock-step answers report it ended on.
+  void endGoal();
   void onSimpleGoal(const geometry_msgs::PoseStamped::ConstPtr& msg);
   void onOdom(const nav_msgs::Odometry::ConstPtr& msg);
   void onScan(size_t input, const sensor_msgs::LaserScan::ConstPtr& msg);
@@ -103,6 +105,8 @@ class MoveBaseRos {
   int64_t last_control_period_ = -1;
   double next_global_publish_ = 0.0, next_local_publish_ = 0.0;
   int64_t last_acked_tick_ = -1;
+  int64_t tick_in_progress_ = -1;  // the tick whose control step runs (-1: none)
+  uint64_t goal_end_tick_ = 0;     // LockstepAck.goal_end_tick
   uint32_t cmd_vel_count_ = 0;
   double tf_wait_ = 2.0;
   // Inputs of a tick not there yet when needed (~stats_file): how often, and wall time waited.

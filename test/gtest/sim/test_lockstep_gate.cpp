@@ -62,6 +62,40 @@ TEST(LockstepGate, NobodyParticipatingNeverWaits) {
   EXPECT_TRUE(gate.answered(17));
 }
 
+TEST(GoalEndWatch, PausesOnTheAlignedTickAfterTheLastWatchedGoalEnds) {
+  GoalEndWatch watch(3);
+  watch.goalEnded(0, 12);  // before the watch: does not count
+  watch.start({0, 1}, 40, 20);
+  EXPECT_TRUE(watch.active());
+  EXPECT_EQ(watch.pauseTick(), 0u);
+  watch.goalEnded(1, 47);
+  EXPECT_EQ(watch.pauseTick(), 0u) << "robot 0 has not ended a goal since tick 40";
+  watch.goalEnded(2, 50);  // not watched
+  EXPECT_EQ(watch.pauseTick(), 0u);
+  watch.goalEnded(0, 40);  // a goal ended (cancelled) on the start tick itself: before the run
+  EXPECT_EQ(watch.pauseTick(), 0u);
+  watch.goalEnded(0, 61);
+  EXPECT_EQ(watch.pauseTick(), 80u) << "the first multiple of 20 at or after tick 61";
+  watch.goalEnded(1, 30);  // an older report changes nothing
+  EXPECT_EQ(watch.pauseTick(), 80u);
+  watch.clear();
+  EXPECT_FALSE(watch.active());
+  EXPECT_EQ(watch.pauseTick(), 0u);
+}
+
+TEST(GoalEndWatch, AnAlignedEndOrNoAlignmentPausesOnTheEndTick) {
+  GoalEndWatch watch(1);
+  watch.start({0}, 0, 20);
+  watch.goalEnded(0, 60);
+  EXPECT_EQ(watch.pauseTick(), 60u);
+  watch.start({0}, 60, 0);
+  watch.goalEnded(0, 73);
+  EXPECT_EQ(watch.pauseTick(), 73u);
+  watch.start({}, 73, 20);
+  EXPECT_FALSE(watch.active());
+  EXPECT_EQ(watch.pauseTick(), 0u);
+}
+
 TEST(RealTimePacer, StepsAreDueAtTheRealTimeFactor) {
   RealTimePacer pacer(20.0, 2.0, 1.0);  // a tick every 0.025 s of wall time
   EXPECT_NEAR(pacer.waitBeforeStep(100.0, 0), 0.025, 1e-12);
