@@ -8,6 +8,7 @@
 #include <fstream>
 
 #include "marl_mrta/map/occupancy_map.h"
+#include "marl_mrta/publish_shared.h"
 #include "marl_mrta/sim/sim_messages_ros.h"
 #include "marl_mrta/sim/sim_params_ros.h"
 
@@ -78,6 +79,7 @@ void SimulatorRos::advertise(ros::NodeHandle& nh, ros::NodeHandle& private_nh) {
   lockstep_ = std::make_unique<LockstepGate>(lockstep);
   goal_ends_ = std::make_unique<GoalEndWatch>(robots_.size());
   clock_pub_ = nh.advertise<rosgraph_msgs::Clock>("/clock", 10);
+  tf_pub_ = nh.advertise<tf2_msgs::TFMessage>("/tf", 100);  // as tf2_ros::TransformBroadcaster
   tick_pub_ = private_nh.advertise<marl_mrta::SimTick>("tick", 100);
   collisions_pub_ = private_nh.advertise<marl_mrta::CollisionEvent>("collisions", 100);
   // No Nagle delay on what a lock-step round trip waits for.
@@ -198,7 +200,7 @@ void SimulatorRos::publishState(const StepReport& report, bool initial) {
   const ros::Time now = stamp();
   rosgraph_msgs::Clock clock;
   clock.clock = now;
-  clock_pub_.publish(clock);
+  publishShared(clock_pub_, clock);
   for (const CollisionEvent& event : report.collisions) {
     marl_mrta::CollisionEvent msg;
     msg.stamp = now;
@@ -216,8 +218,8 @@ void SimulatorRos::publishState(const StepReport& report, bool initial) {
       const RobotState& state = world_->robot(static_cast<int>(g));
       fillOdometry(io.msgs.odom, now, state.odom_pose, state.velocity);
       fillOdometry(io.msgs.ground_truth, now, state.pose, state.velocity);
-      io.odom_pub.publish(io.msgs.odom);
-      io.ground_truth_pub.publish(io.msgs.ground_truth);
+      publishShared(io.odom_pub, io.msgs.odom);
+      publishShared(io.ground_truth_pub, io.msgs.ground_truth);
       fillTransform(io.msgs.odom_tf, now, state.odom_pose);
       transforms_[g] = io.msgs.odom_tf;
       if (config_.publish_localization) {
@@ -225,7 +227,8 @@ void SimulatorRos::publishState(const StepReport& report, bool initial) {
         transforms_[robots_.size() + g] = io.msgs.map_odom_tf;
       }
     }
-    tf_broadcaster_.sendTransform(transforms_);  // one message for every robot
+    tf_message_.transforms = transforms_;  // one message for every robot
+    publishShared(tf_pub_, tf_message_);
   }
   const bool scans = config_.scan_rate > 0.0 && (initial || report.scan_updated);
   if (scans) {
@@ -233,14 +236,14 @@ void SimulatorRos::publishState(const StepReport& report, bool initial) {
       RobotIo& io = robots_[g];
       io.msgs.scan.header.stamp = now;
       io.msgs.scan.ranges = world_->robot(static_cast<int>(g)).scan;
-      io.scan_pub.publish(io.msgs.scan);
+      publishShared(io.scan_pub, io.msgs.scan);
     }
   }
   last_tick_.tick = world_->tick();
   last_tick_.stamp = now;
   last_tick_.scan_published = scans;
   if (scans) last_tick_.last_scan_stamp = now;
-  tick_pub_.publish(last_tick_);
+  publishShared(tick_pub_, last_tick_);
 }
 
 int SimulatorRos::run() {
@@ -270,7 +273,7 @@ int SimulatorRos::run() {
     const ros::WallTime now = ros::WallTime::now();
     if (!lockstep_->answered(world_->tick())) {
       if ((now - tick_sent).toSec() > kLockstepResendPeriod) {  // for controllers that joined late
-        tick_pub_.publish(last_tick_);
+        publishShared(tick_pub_, last_tick_);
         if ((now - tick_stepped).toSec() > kLockstepWarnAfter) warnLockstepWait();
         tick_sent = now;
       }

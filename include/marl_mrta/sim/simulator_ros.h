@@ -4,7 +4,7 @@
 
 #include <ros/callback_queue.h>
 #include <ros/ros.h>
-#include <tf2_ros/transform_broadcaster.h>
+#include <tf2_msgs/TFMessage.h>
 
 #include <atomic>
 #include <memory>
@@ -74,11 +74,11 @@ class SimulatorRos {
   SimConfig config_;
   std::unique_ptr<World> world_;
   std::vector<RobotIo> robots_;
-  ros::Publisher clock_pub_, tick_pub_, collisions_pub_;
+  ros::Publisher clock_pub_, tick_pub_, collisions_pub_, tf_pub_;
   ros::Subscriber lockstep_ack_sub_;
   ros::ServiceServer reset_srv_, pause_srv_, step_srv_, run_until_srv_;
-  tf2_ros::TransformBroadcaster tf_broadcaster_;
   std::vector<geometry_msgs::TransformStamped> transforms_;
+  tf2_msgs::TFMessage tf_message_;
   marl_mrta::SimTick last_tick_;  // re-sent while lock-step answers are missing
   std::unique_ptr<LockstepGate> lockstep_;
   std::unique_ptr<GoalEndWatch> goal_ends_;  // ~run_until's until_goals_end_of

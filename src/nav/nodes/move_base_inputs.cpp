@@ -5,6 +5,7 @@
 
 #include "move_base_ros.h"
 #include "marl_mrta/nav/ros_conversions.h"
+#include "marl_mrta/publish_shared.h"
 
 namespace marl_mrta {
 namespace nav {
@@ -59,7 +60,7 @@ void MoveBaseRos::processTicks() {
     ack_.cmd_vel_count = cmd_vel_count_;
     ack_.goal_end_tick = goal_end_tick_;
     ack_.next_stamp.fromSec((static_cast<double>(period_index) + 1.0 - 1e-6) * control_period_);
-    ack_pub_.publish(ack_);
+    publishShared(ack_pub_, ack_);
     pending_ticks_.pop_front();
   }
 }

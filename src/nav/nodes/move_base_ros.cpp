@@ -9,6 +9,7 @@
 
 #include "marl_mrta/nav/static_layer.h"
 #include "marl_mrta/nav/ros_conversions.h"
+#include "marl_mrta/publish_shared.h"
 
 namespace marl_mrta {
 namespace nav {
@@ -171,7 +172,7 @@ void MoveBaseRos::publishCommand(const Velocity2D& command) {
   twist.linear.x = command.x;
   twist.linear.y = command.y;
   twist.angular.z = command.theta;
-  cmd_vel_pub_.publish(twist);
+  publishShared(cmd_vel_pub_, twist);
   ++cmd_vel_count_;
 }
 
