@@ -36,6 +36,7 @@ endforeach()
 # move_base's ROS shell, shared by the node and the nodelet (cmake/nodelets.cmake).
 add_library(${PROJECT_NAME}_move_base_ros
   src/nav/nodes/move_base_inputs.cpp
+  src/nav/nodes/move_base_outputs.cpp
   src/nav/nodes/move_base_ros.cpp
   src/nav/nodes/transform_source.cpp
 )

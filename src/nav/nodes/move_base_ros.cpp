@@ -9,7 +9,6 @@
 
 #include "marl_mrta/nav/static_layer.h"
 #include "marl_mrta/nav/ros_conversions.h"
-#include "marl_mrta/publish_shared.h"
 
 namespace marl_mrta {
 namespace nav {
@@ -137,12 +136,6 @@ void MoveBaseRos::onGoal() {
   current_goal_pub_.publish(global);
 }
 
-void MoveBaseRos::endGoal() {
-  // Between ticks (a goal refused or cancelled) it counts on the last tick answered.
-  const int64_t tick = tick_in_progress_ >= 0 ? tick_in_progress_ : last_acked_tick_;
-  goal_end_tick_ = static_cast<uint64_t>(std::max<int64_t>(tick, 0));
-}
-
 void MoveBaseRos::onPreempt() {
   if (action_server_.isNewGoalAvailable()) return;  // onGoal takes over without stopping
   if (!action_server_.isActive()) return;
@@ -165,60 +158,6 @@ void MoveBaseRos::onMap(const nav_msgs::OccupancyGrid::ConstPtr& msg) {
     for (StaticLayer* layer : costmap->layersOfType<StaticLayer>()) layer->setMap(occupancy);
   }
   ROS_INFO("move_base: map %u x %u at %.3f m", msg->info.width, msg->info.height, msg->info.resolution);
-}
-
-void MoveBaseRos::publishCommand(const Velocity2D& command) {
-  geometry_msgs::Twist twist;
-  twist.linear.x = command.x;
-  twist.linear.y = command.y;
-  twist.angular.z = command.theta;
-  publishShared(cmd_vel_pub_, twist);
-  ++cmd_vel_count_;
-}
-
-void MoveBaseRos::publishOutputs(const CycleOutput& out, const Pose2D& pose, const ros::Time& stamp) {
-  if (out.publish_command) publishCommand(out.command);
-  if (!out.recovery_started.empty()) ROS_WARN("move_base: running recovery behavior %s", out.recovery_started.c_str());
-  if (out.new_plan && plan_pub_.getNumSubscribers() > 0) plan_pub_.publish(conv::toPath(out.plan, global_frame_, stamp));
-  if (!out.local_plan.empty() && local_plan_pub_.getNumSubscribers() > 0) {
-    local_plan_pub_.publish(conv::toPath(out.local_plan, local_frame_, stamp));
-  }
-  if (!action_server_.isActive()) return;
-  waitForClock(stamp);  // actionlib stamps what follows with ros::Time::now()
-  switch (out.outcome) {
-    case CycleOutput::Outcome::kSucceeded:
-      ROS_INFO("move_base: %s", out.message.c_str());
-      endGoal();
-      action_server_.setSucceeded(move_base_msgs::MoveBaseResult(), out.message);
-      break;
-    case CycleOutput::Outcome::kAborted:
-      ROS_ERROR("move_base: %s", out.message.c_str());
-      endGoal();
-      action_server_.setAborted(move_base_msgs::MoveBaseResult(), out.message);
-      break;
-    case CycleOutput::Outcome::kNone: {
-      if (!out.message.empty()) ROS_WARN_THROTTLE(1.0, "move_base: %s", out.message.c_str());
-      move_base_msgs::MoveBaseFeedback feedback;
-      feedback.base_position.header.frame_id = global_frame_;
-      feedback.base_position.header.stamp = stamp;
-      feedback.base_position.pose.position.x = pose.x;
-      feedback.base_position.pose.position.y = pose.y;
-      feedback.base_position.pose.orientation = conv::quaternionFromYaw(pose.yaw);
-      action_server_.publishFeedback(feedback);
-      break;
-    }
-  }
-}
-
-void MoveBaseRos::publishCostmaps(double now, const ros::Time& stamp) {
-  const MoveBaseConfig& config = core_->config();
-  auto publish = [&](ros::Publisher& pub, LayeredCostmap& costmap, const CostmapConfig& cc, double& next) {
-    if (cc.publish_frequency <= 0.0 || now < next || pub.getNumSubscribers() == 0) return;
-    next = now + 1.0 / cc.publish_frequency - 1e-9;
-    pub.publish(conv::costmapToOccupancyGrid(costmap.costmap(), cc.global_frame, stamp));
-  };
-  publish(global_costmap_pub_, core_->globalCostmap(), config.global_costmap, next_global_publish_);
-  publish(local_costmap_pub_, core_->localCostmap(), config.local_costmap, next_local_publish_);
 }
 
 bool MoveBaseRos::onMakePlan(nav_msgs::GetPlan::Request& req, nav_msgs::GetPlan::Response& res) {
