@@ -12,7 +12,6 @@ ground-truth pose, and its scan, or the wait runs out; the last screenshot is ke
 import math
 import os
 import shutil
-import signal
 import subprocess
 import time
 import unittest
@@ -25,6 +24,7 @@ from geometry_msgs.msg import TransformStamped
 from nav_msgs.msg import OccupancyGrid, Odometry
 
 from marl_mrta.mapping.occupancy_map import FREE, OCCUPIED, load_map
+from marl_mrta.ros.process_group import stop_process_group
 
 BACKGROUND = np.array([48, 48, 48])        # rviz's default background colour (the config's)
 SCAN_RGB = {"tb3_0": (239, 41, 41), "tb3_1": (245, 121, 0), "tb3_2": (78, 154, 6),
@@ -124,13 +124,7 @@ class RvizScreenshotTest(unittest.TestCase):
     @classmethod
     def stop_processes(cls):
         for process in reversed(cls.processes):   # sim.launch first, then Xvfb
-            if process.poll() is None:
-                os.killpg(process.pid, signal.SIGINT)
-                try:
-                    process.wait(timeout=30)
-                except subprocess.TimeoutExpired:
-                    os.killpg(process.pid, signal.SIGKILL)
-                    process.wait()
+            stop_process_group(process)
 
     @classmethod
     def start_xvfb(cls):

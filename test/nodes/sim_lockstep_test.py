@@ -11,7 +11,6 @@ The third run shares the machine with two busy-looping processes (one per core).
 import json
 import os
 import shutil
-import signal
 import subprocess
 import sys
 import tempfile
@@ -20,19 +19,9 @@ import unittest
 import rospy
 import rostest
 
+from marl_mrta.ros.process_group import stop_process_group
+
 START_POSES = {"tb3_0": (0.5, 0.5), "tb3_1": (0.5, 4.5)}  # config/sim.yaml
-
-
-def stop(process, timeout=20.0):
-    """SIGINT to the process group (what Ctrl-C does to roslaunch), then SIGKILL."""
-    if process.poll() is not None:
-        return
-    os.killpg(process.pid, signal.SIGINT)
-    try:
-        process.wait(timeout)
-    except subprocess.TimeoutExpired:
-        os.killpg(process.pid, signal.SIGKILL)
-        process.wait()
 
 
 class LockstepTest(unittest.TestCase):
@@ -61,8 +50,8 @@ class LockstepTest(unittest.TestCase):
         except subprocess.TimeoutExpired:
             self.fail("%s: the commander did not reach tick %d (log: %s)" % (tag, self.final_tick, log.name))
         finally:
-            stop(commander)
-            stop(simulator)
+            stop_process_group(commander, 20.0)
+            stop_process_group(simulator, 20.0)
             log.close()
         self.assertEqual(commander.returncode, 0, "%s: commander failed, log:\n%s" % (tag, open(log.name).read()))
         with open(result_path) as f:

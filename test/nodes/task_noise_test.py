@@ -12,7 +12,6 @@ would show. Nothing here asserts speed."""
 import json
 import os
 import shutil
-import signal
 import subprocess
 import sys
 import tempfile
@@ -23,20 +22,9 @@ import rostest
 
 from marl_mrta.evaluation.cli import main as evaluate_main
 from marl_mrta.ros.env_client import RosTaskEnvClient
+from marl_mrta.ros.process_group import stop_process_group
 
 MANAGER = "/rl_task_allocation_manager"
-
-
-def stop(process, timeout=30.0):
-    """SIGINT to the process group (what Ctrl-C does to roslaunch), then SIGKILL."""
-    if process.poll() is not None:
-        return
-    os.killpg(process.pid, signal.SIGINT)
-    try:
-        process.wait(timeout)
-    except subprocess.TimeoutExpired:
-        os.killpg(process.pid, signal.SIGKILL)
-        process.wait()
 
 
 def episodes(data):
@@ -68,7 +56,7 @@ class TaskNoiseTest(unittest.TestCase):
             code = evaluate_main(["--executor", "ros", "--method", "exact", "--episodes", "1", "--out", out,
                                   "--quiet"])
         finally:
-            stop(launch)
+            stop_process_group(launch)
             log.close()
         self.assertEqual(code, 0, "%s: evaluate failed, log: %s" % (tag, log.name))
         with open(out) as f:
