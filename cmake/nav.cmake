@@ -21,7 +21,7 @@ add_library(${PROJECT_NAME}_nav_core
 target_link_libraries(${PROJECT_NAME}_nav_core ${PROJECT_NAME}_map ${YAML_CPP_LIBRARIES})
 
 # ROS glue shared by the nodes (parameter tree conversion, message conversions).
-add_library(${PROJECT_NAME}_nav_ros src/nav/nodes/ros_conversions.cpp)
+add_library(${PROJECT_NAME}_nav_ros src/nav/nodes/map_server_ros.cpp src/nav/nodes/ros_conversions.cpp)
 target_link_libraries(${PROJECT_NAME}_nav_ros ${PROJECT_NAME}_nav_core ${catkin_LIBRARIES})
 add_dependencies(${PROJECT_NAME}_nav_ros ${PROJECT_NAME}_generate_messages_cpp ${catkin_EXPORTED_TARGETS})
 

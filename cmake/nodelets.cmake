@@ -1,6 +1,7 @@
-# The simulator and the built-in move_base as nodelets (nodelet_plugins.xml), for running them
+# The simulator, the built-in map_server and move_base as nodelets (nodelet_plugins.xml), for running them
 # in one process: sim.launch nodelets:=true. The same ROS shells as the nodes.
 add_library(${PROJECT_NAME}_nodelets
+  src/nav/nodes/map_server_nodelet.cpp
   src/nav/nodes/move_base_nodelet.cpp
   src/sim/simulator_nodelet.cpp
 )

@@ -349,9 +349,12 @@ class NodeletsTest(RepeatTest):
                          cls.errors.append("%s: %s" % (m.name, m.msg)), queue_size=100)
         time.sleep(1.0)  # connected to every node before the goals of the tests
 
-    def test_simulator_and_move_base_run_in_the_manager(self):
+    def test_simulator_map_server_and_move_base_run_in_the_manager(self):
         publishers = dict(rosgraph.Master(rospy.get_name()).getSystemState()[0])
         self.assertEqual(publishers.get("/simulator/tick"), ["/sim_manager"])
+        self.assertEqual(publishers.get("/map"), ["/sim_manager"])
+        subscribers = dict(rosgraph.Master(rospy.get_name()).getSystemState()[1])
+        self.assertNotIn("/map_server", subscribers.get("/clock", []), "the map_server nodelet takes /clock itself")
         for ns in self.robots:
             self.assertEqual(publishers.get("/%s/cmd_vel" % ns), ["/sim_manager"], ns)
             self.assertEqual(publishers.get("/%s/move_base/status" % ns), ["/sim_manager"], ns)

@@ -128,10 +128,16 @@ def test_nodelets_put_the_simulator_and_every_builtin_move_base_in_one_manager()
         assert move_base.args == "load marl_mrta/MoveBase /sim_manager"
         assert ["map", "/map"] in move_base.remap_args
         assert params["/%s/move_base/controller_frequency" % ns] == 10.0
+    map_server = nodes["/map_server"]
+    assert (map_server.package, map_server.type) == ("nodelet", "nodelet")
+    assert map_server.args.split()[:3] == ["load", "marl_mrta/MapServer", "/sim_manager"]
+    assert map_server.args.split()[3].endswith("maps/lab.yaml")
+    assert ["/use_sim_time", "nodelet_load_client_has_no_sim_time"] in map_server.remap_args
     nodes, _ = load("launch/tasks.launch", "nodelets:=false")
     assert "/sim_manager" not in nodes
     assert (nodes["/simulator"].package, nodes["/simulator"].type) == ("marl_mrta", "simulator")
     assert (nodes["/tb3_0/move_base"].package, nodes["/tb3_0/move_base"].type) == ("marl_mrta", "move_base")
+    assert (nodes["/map_server"].package, nodes["/map_server"].type) == ("marl_mrta", "map_server")
     # The stock move_base is no nodelet: a node of its own even beside the manager.
     nodes, _ = load("launch/tasks.launch", "nav:=stock", "lockstep:=false")
     assert nodes["/tb3_0/move_base"].package == "move_base"
