@@ -55,7 +55,7 @@ SimulatorRos::SimulatorRos(ros::NodeHandle& nh, ros::NodeHandle& private_nh)
 void SimulatorRos::advertise(ros::NodeHandle& nh, ros::NodeHandle& private_nh) {
   const std::vector<std::string> names = robotNamespaces(config_);
   robots_.resize(names.size());
-  transforms_.resize(config_.publish_localization ? 2 * names.size() : names.size());
+  tf_message_.transforms.resize(config_.publish_localization ? 2 * names.size() : names.size());
   for (size_t g = 0; g < names.size(); ++g) {
     RobotIo& io = robots_[g];
     io.ns = names[g];
@@ -221,14 +221,13 @@ void SimulatorRos::publishState(const StepReport& report, bool initial) {
       publishShared(io.odom_pub, io.msgs.odom);
       publishShared(io.ground_truth_pub, io.msgs.ground_truth);
       fillTransform(io.msgs.odom_tf, now, state.odom_pose);
-      transforms_[g] = io.msgs.odom_tf;
+      tf_message_.transforms[g] = io.msgs.odom_tf;
       if (config_.publish_localization) {
         fillLocalization(io.msgs);
-        transforms_[robots_.size() + g] = io.msgs.map_odom_tf;
+        tf_message_.transforms[robots_.size() + g] = io.msgs.map_odom_tf;
       }
     }
-    tf_message_.transforms = transforms_;  // one message for every robot
-    publishShared(tf_pub_, tf_message_);
+    publishShared(tf_pub_, tf_message_);  // one message for every robot
   }
   const bool scans = config_.scan_rate > 0.0 && (initial || report.scan_updated);
   if (scans) {

@@ -77,8 +77,7 @@ class SimulatorRos {
   ros::Publisher clock_pub_, tick_pub_, collisions_pub_, tf_pub_;
   ros::Subscriber lockstep_ack_sub_;
   ros::ServiceServer reset_srv_, pause_srv_, step_srv_, run_until_srv_;
-  std::vector<geometry_msgs::TransformStamped> transforms_;
-  tf2_msgs::TFMessage tf_message_;
+  tf2_msgs::TFMessage tf_message_;  // every robot's transforms, refilled at each odometry tick
   marl_mrta::SimTick last_tick_;  // re-sent while lock-step answers are missing
   std::unique_ptr<LockstepGate> lockstep_;
   std::unique_ptr<GoalEndWatch> goal_ends_;  // ~run_until's until_goals_end_of
