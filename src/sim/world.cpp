@@ -81,6 +81,12 @@ uint64_t streamSeed(uint64_t seed, int global_index, int purpose) {
          static_cast<uint64_t>(purpose);
 }
 
+// The configured seed and an episode's seed in one: distinct episodes (an odd multiplier keeps
+// them distinct) and distinct configured seeds give distinct streams.
+uint64_t episodeSeed(int configured_seed, uint64_t episode_seed) {
+  return static_cast<uint64_t>(configured_seed) ^ ((episode_seed + 1) * 0xBF58476D1CE4E5B9ull);
+}
+
 }  // namespace
 
 std::string robotNamespace(int arenas, int arena, int index) {
@@ -102,8 +108,7 @@ World::World(const map::OccupancyMap& map, const WorldConfig& config)
   for (size_t g = 0; g < robots_.size(); ++g) {
     Robot& robot = robots_[g];
     robot.start_pose = config_.start_poses[g % robots_per_arena_];
-    robot.motion_rng.reseed(streamSeed(config_.seed, static_cast<int>(g), 1));
-    robot.lidar_rng.reseed(streamSeed(config_.seed, static_cast<int>(g), 2));
+    seedStreams(static_cast<int>(g), static_cast<uint64_t>(config_.seed));
     resetRobot(robot);
   }
   if (config_.scan_rate > 0.0) takeScans();
@@ -347,6 +352,12 @@ void World::takeScans() {
   }
 }
 
+void World::seedStreams(int global_index, uint64_t seed) {
+  Robot& robot = robots_.at(global_index);
+  robot.motion_rng.reseed(streamSeed(seed, global_index, 1));
+  robot.lidar_rng.reseed(streamSeed(seed, global_index, 2));
+}
+
 void World::resetRobot(Robot& robot) {
   robot.state.pose = robot.start_pose;
   robot.state.velocity = Twist2D{};
@@ -360,7 +371,8 @@ void World::resetRobot(Robot& robot) {
   robot.robot_contacts.clear();
 }
 
-std::string World::reset(int arena, const std::vector<std::pair<int, Pose2D>>& new_start_poses) {
+std::string World::reset(int arena, const std::vector<std::pair<int, Pose2D>>& new_start_poses,
+                         std::optional<uint64_t> episode_seed) {
   if (arena < -1 || arena >= config_.arenas) {
     return "arena " + std::to_string(arena) + " does not exist (arenas: " + std::to_string(config_.arenas) + ")";
   }
@@ -390,6 +402,7 @@ std::string World::reset(int arena, const std::vector<std::pair<int, Pose2D>>& n
       Robot& robot = robots_[globalIndex(k, i)];
       robot.start_pose = start_poses[globalIndex(k, i)];
       resetRobot(robot);
+      if (episode_seed) seedStreams(globalIndex(k, i), episodeSeed(config_.seed, *episode_seed));
     }
   }
   return "";

@@ -209,7 +209,7 @@ class NavTest(unittest.TestCase):
         rospy.wait_for_service("/simulator/reset", 30.0)
         names = list(poses)
         response = rospy.ServiceProxy("/simulator/reset", ResetSim)(
-            -1, names, [Pose2D(*poses[n]) for n in names])
+            arena=-1, robots=names, poses=[Pose2D(*poses[n]) for n in names])
         self.assertTrue(response.success, response.message)
         time.sleep(0.5)  # wall: lets the robots' new odometry and ground truth reach every node
         for n in names:

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""rostest: /simulator/reset (all, one arena, given poses, refused poses), pause, step and run_until.
+"""rostest: /simulator/reset (all, one arena, given poses, refused poses and seeds), pause, step and run_until.
 
 Runs against ``sim.launch robots:=2 arenas:=2``: drives one robot of each arena away from
 its start pose, then checks what each reset brings back, from the ground truth and odometry
@@ -127,6 +127,9 @@ class ResetTest(unittest.TestCase):
         self.assertIn("unknown robot 'tb3_9'", response.message)
         response = self.reset(arena=0, robots=["arena_1/tb3_0"], poses=[Pose2D(1.0, 1.0, 0.0)])
         self.assertFalse(response.success)
+        response = self.reset(arena=-1, robots=[], poses=[], reseed=True, seed=-3)
+        self.assertFalse(response.success)
+        self.assertIn("seed must be >= 0, got -3", response.message)
         response = self.reset(arena=-1, robots=[], poses=[])  # the new start pose stays
         self.assertTrue(response.success, response.message)
         truth = self.truth.after("arena_0/tb3_1", rospy.Time.now())

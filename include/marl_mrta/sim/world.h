@@ -7,6 +7,7 @@
 
 #include <cstdint>
 #include <deque>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -104,8 +105,12 @@ class World {
   // Puts the robots of `arena` (-1: every arena) back to their start poses: velocities zero,
   // odometry restarted, pending commands dropped. `new_start_poses` first replaces the start
   // poses of the given robots (global indices), which must lie in the reset arena(s).
+  // `episode_seed`, when given, restarts the reset robots' noise streams from it (combined
+  // with the configured seed), so an episode's noise does not depend on how many ticks ran
+  // before it; without it the streams run on.
   // Returns "" on success, else a one-line reason and changes nothing.
-  std::string reset(int arena, const std::vector<std::pair<int, Pose2D>>& new_start_poses = {});
+  std::string reset(int arena, const std::vector<std::pair<int, Pose2D>>& new_start_poses = {},
+                    std::optional<uint64_t> episode_seed = std::nullopt);
 
   // Why a robot of `arena` could not stand at `pose` given the other poses of the arena
   // (skip_index: the robot itself), or "" if it can.
@@ -139,6 +144,7 @@ class World {
   void integrateOdometry(Robot& robot, const Twist2D& velocity, double dt);
   void takeScans();
   void resetRobot(Robot& robot);
+  void seedStreams(int global_index, uint64_t seed);
 
   WorldConfig config_;
   ObstacleGrid grid_;

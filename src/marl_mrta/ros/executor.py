@@ -74,14 +74,15 @@ class RosExecutor:
 
     def reset(self, seed: Optional[int] = None) -> None:
         """Robots back to the scenario's start poses: goals cancelled, costmaps cleared, simulator
-        paused on the reset state. The simulator's own noise is seeded by its `seed` parameter."""
-        del seed
+        paused on the reset state. With a `seed` the simulator restarts this arena's noise streams
+        from it (and its `seed` parameter): the episode then never depends on how many ticks ran
+        before it, at start-up or in earlier episodes. Without one the streams run on."""
         self._pause(True)
         self._cancel_running()
         # On an aligned tick, so that the controllers' costmap updates (restarted by the clearing
         # below) keep the same phase relative to every later step start.
         self._settle(align=True)
-        self.sim.reset(self._starts)
+        self.sim.reset(self._starts, seed)
         for base in self.bases:
             base.forget()
             service = rospy.ServiceProxy(base.server_name + "/clear_costmaps", Empty)

@@ -146,10 +146,12 @@ class SimulatorLink:
                                              align_ticks=align_ticks),
                      self.answer_wall, f"{SIMULATOR}/run_until {tick}")
 
-    def reset(self, poses: Sequence[Tuple[float, float, float]]) -> None:
-        """This arena's robots to `poses` (map frame), which become their start poses."""
+    def reset(self, poses: Sequence[Tuple[float, float, float]], seed: Optional[int] = None) -> None:
+        """This arena's robots to `poses` (map frame), which become their start poses; with a
+        `seed`, their noise streams restart from it."""
         request = ResetSimRequest(arena=self.arena, robots=self.robots,
-                                  poses=[Pose2DMsg(x, y, yaw) for x, y, yaw in poses])
+                                  poses=[Pose2DMsg(x, y, yaw) for x, y, yaw in poses],
+                                  reseed=seed is not None, seed=seed if seed is not None else 0)
         response = call_bounded(lambda: self._reset(request), self.answer_wall, f"{SIMULATOR}/reset")
         if not response.success:
             raise SimulatorLost(f"{SIMULATOR}/reset refused: {response.message}")

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <optional>
 
 #include "marl_mrta/sim/diff_drive.h"
 #include "marl_mrta/sim/world.h"
@@ -191,6 +192,45 @@ TEST(World, SameCommandsGiveBitIdenticalResults) {
     EXPECT_EQ(a.robot(g).pose.yaw, b.robot(g).pose.yaw);
     EXPECT_EQ(a.robot(g).scan, b.robot(g).scan);
   }
+}
+
+// An episode reset with a seed draws the same noise whatever ran before it: a launch that
+// ticked longer before its first episode (start-up) gives the same episode.
+TEST(World, AnEpisodeSeedMakesTheEpisodeIndependentOfEarlierTicks) {
+  map::OccupancyMap map = room(7.0, 5.0);
+  testing::addBox(map, 3.0, 1.0, 3.4, 1.4);
+  WorldConfig config = idealConfig({{1.0, 1.0, 0.0}, {1.0, 4.0, 0.0}});
+  config.noise = noiseProfile("measured_tb3");
+  config.seed = 3;
+  // `earlier` ticks of driving (a multiple of the scan period, so sensors keep their phase),
+  // then an episode reset with `episode_seed` and 600 ticks of the same commands.
+  auto episode = [&](int earlier, std::optional<uint64_t> episode_seed) {
+    World world(map, config);
+    for (int t = 0; t < earlier; ++t) {
+      for (int g = 0; g < world.robotCount(); ++g) world.setCommand(g, {0.2, 0.5});
+      world.step();
+    }
+    EXPECT_EQ(world.reset(-1, {}, episode_seed), "");
+    for (int t = 0; t < 600; ++t) {
+      for (int g = 0; g < world.robotCount(); ++g) {
+        world.setCommand(g, {0.22 * std::cos(t * 0.01 * (g + 1)), 2.0 * std::sin(t * 0.013 * (g + 2))});
+      }
+      world.step();
+    }
+    return world;
+  };
+  auto same = [](const World& a, const World& b) {
+    for (int g = 0; g < a.robotCount(); ++g) {
+      if (a.robot(g).pose.x != b.robot(g).pose.x || a.robot(g).pose.y != b.robot(g).pose.y ||
+          a.robot(g).pose.yaw != b.robot(g).pose.yaw || a.robot(g).scan != b.robot(g).scan) {
+        return false;
+      }
+    }
+    return true;
+  };
+  EXPECT_TRUE(same(episode(40, 7), episode(200, 7)));
+  EXPECT_FALSE(same(episode(40, 7), episode(40, 8)));                        // the seed matters
+  EXPECT_FALSE(same(episode(40, std::nullopt), episode(200, std::nullopt)));  // streams ran on
 }
 
 TEST(World, SensorsAreDueAtTheirRates) {
