@@ -16,6 +16,7 @@ add_library(${PROJECT_NAME}_sim_ros
   src/sim/sim_messages_ros.cpp
   src/sim/sim_params_ros.cpp
   src/sim/simulator_ros.cpp
+  src/sim/simulator_services_ros.cpp
 )
 add_dependencies(${PROJECT_NAME}_sim_ros ${PROJECT_NAME}_generate_messages_cpp ${catkin_EXPORTED_TARGETS})
 # nav_ros: the ground-truth localisation it shares with fake_localization (publish_localization).

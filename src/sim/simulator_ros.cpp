@@ -98,76 +98,18 @@ void SimulatorRos::onCmdVel(size_t robot, const geometry_msgs::Twist::ConstPtr& 
   }
 }
 
+int SimulatorRos::robotIndex(const std::string& ns) const {
+  const auto found = std::find_if(robots_.begin(), robots_.end(), [&](const RobotIo& io) { return io.ns == ns; });
+  return found == robots_.end() ? -1 : static_cast<int>(found - robots_.begin());
+}
+
 void SimulatorRos::onLockstepAck(const marl_mrta::LockstepAck::ConstPtr& msg) {
-  const auto found = std::find_if(robots_.begin(), robots_.end(), [&](const RobotIo& io) { return io.ns == msg->robot; });
-  if (found != robots_.end()) goal_ends_->goalEnded(static_cast<int>(found - robots_.begin()), msg->goal_end_tick);
-  if (found == robots_.end() ||
-      !lockstep_->ackReceived(static_cast<int>(found - robots_.begin()), msg->tick, msg->cmd_vel_count,
-                              firstTickAtOrAfter(msg->next_stamp), world_->tick())) {
+  const int robot = robotIndex(msg->robot);
+  if (robot >= 0) goal_ends_->goalEnded(robot, msg->goal_end_tick);
+  if (robot < 0 || !lockstep_->ackReceived(robot, msg->tick, msg->cmd_vel_count, firstTickAtOrAfter(msg->next_stamp),
+                                           world_->tick())) {
     ROS_WARN_THROTTLE(5.0, "lockstep_ack: robot '%s' is not in ~lockstep_robots; ignored", msg->robot.c_str());
   }
-}
-
-bool SimulatorRos::onReset(marl_mrta::ResetSim::Request& req, marl_mrta::ResetSim::Response& res) {
-  std::vector<std::pair<int, Pose2D>> poses;
-  if (req.robots.size() != req.poses.size()) {
-    res.message = "robots and poses differ in length (" + std::to_string(req.robots.size()) + " vs " +
-                  std::to_string(req.poses.size()) + ")";
-  }
-  for (size_t i = 0; i < req.robots.size() && res.message.empty(); ++i) {
-    const auto found = std::find_if(robots_.begin(), robots_.end(),
-                                    [&](const RobotIo& io) { return io.ns == req.robots[i]; });
-    if (found == robots_.end()) res.message = "unknown robot '" + req.robots[i] + "'";
-    else poses.push_back({static_cast<int>(found - robots_.begin()), {req.poses[i].x, req.poses[i].y, req.poses[i].theta}});
-  }
-  if (res.message.empty()) res.message = world_->reset(req.arena, poses);
-  res.success = res.message.empty();
-  if (res.success) res.message = "reset at tick " + std::to_string(world_->tick());
-  return true;
-}
-
-void SimulatorRos::setPaused(bool paused) {
-  const ros::WallTime now = ros::WallTime::now();
-  if (paused && !paused_) timing_.paused_since = now;
-  if (!paused && paused_) timing_.paused += (now - timing_.paused_since).toSec();
-  paused_ = paused;
-  pacer_->restart();
-}
-
-bool SimulatorRos::onPause(std_srvs::SetBool::Request& req, std_srvs::SetBool::Response& res) {
-  setPaused(req.data);
-  run_until_tick_ = 0;
-  goal_ends_->clear();
-  res.success = true;
-  res.message = (paused_ ? "paused at tick " : "running from tick ") + std::to_string(world_->tick());
-  return true;
-}
-
-bool SimulatorRos::onStep(marl_mrta::StepSim::Request& req, marl_mrta::StepSim::Response& res) {
-  for (uint32_t i = 0; i < req.ticks; ++i) stepAndPublish();
-  if (paused_) timing_.paused_ticks += req.ticks;
-  pacer_->restart();
-  res.tick = world_->tick();
-  res.stamp = stamp();
-  return true;
-}
-
-bool SimulatorRos::onRunUntil(marl_mrta::RunSim::Request& req, marl_mrta::RunSim::Response& res) {
-  std::vector<int> watched;
-  for (const std::string& ns : req.until_goals_end_of) {
-    const auto found = std::find_if(robots_.begin(), robots_.end(), [&](const RobotIo& io) { return io.ns == ns; });
-    if (found == robots_.end()) {
-      ROS_ERROR("run_until: until_goals_end_of: no robot '%s'", ns.c_str());
-      return false;
-    }
-    watched.push_back(static_cast<int>(found - robots_.begin()));
-  }
-  goal_ends_->start(std::move(watched), world_->tick(), req.align_ticks);
-  run_until_tick_ = req.until_tick;
-  setPaused(req.until_tick <= world_->tick());
-  res.tick = world_->tick();
-  res.stamp = stamp();
-  return true;
 }
 
 ros::Time SimulatorRos::stamp() const { return stampOf(world_->tick()); }
@@ -243,6 +185,14 @@ void SimulatorRos::publishState(const StepReport& report, bool initial) {
   last_tick_.scan_published = scans;
   if (scans) last_tick_.last_scan_stamp = now;
   publishShared(tick_pub_, last_tick_);
+  tick_sent_ = ros::WallTime::now();
+}
+
+bool SimulatorRos::resendUnansweredTick(const ros::WallTime& now) {
+  if (lockstep_->answered(world_->tick()) || (now - tick_sent_).toSec() <= kLockstepResendPeriod) return false;
+  publishShared(tick_pub_, last_tick_);
+  tick_sent_ = now;
+  return true;
 }
 
 int SimulatorRos::run() {
@@ -250,7 +200,7 @@ int SimulatorRos::run() {
   timing_.start = timing_.paused_since = ros::WallTime::now();
   paused_ = config_.start_paused;
   publishState(StepReport{}, true);
-  ros::WallTime tick_sent = timing_.start, tick_stepped = timing_.start;
+  ros::WallTime tick_stepped = timing_.start;
   while (ros::ok() && !stop_requested_) {
     queue.callAvailable();
     if (goal_ends_->active() && goal_ends_->pauseTick() > 0) {
@@ -265,17 +215,14 @@ int SimulatorRos::run() {
       run_until_tick_ = 0;
       goal_ends_->clear();
     }
+    const ros::WallTime now = ros::WallTime::now();
     if (paused_) {
+      resendUnansweredTick(now);  // a controller that joined while paused answers the current tick
       queue.callAvailable(ros::WallDuration(0.05));
       continue;
     }
-    const ros::WallTime now = ros::WallTime::now();
     if (!lockstep_->answered(world_->tick())) {
-      if ((now - tick_sent).toSec() > kLockstepResendPeriod) {  // for controllers that joined late
-        publishShared(tick_pub_, last_tick_);
-        if ((now - tick_stepped).toSec() > kLockstepWarnAfter) warnLockstepWait();
-        tick_sent = now;
-      }
+      if (resendUnansweredTick(now) && (now - tick_stepped).toSec() > kLockstepWarnAfter) warnLockstepWait();
       queue.callAvailable(ros::WallDuration(0.01));  // returns as soon as an answer arrives
       pacer_->restart();
       continue;
@@ -286,7 +233,7 @@ int SimulatorRos::run() {
       continue;
     }
     stepAndPublish();
-    tick_sent = tick_stepped = now;
+    tick_stepped = now;
   }
   writeStats();
   return 0;

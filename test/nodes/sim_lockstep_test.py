@@ -7,6 +7,10 @@ robots with tick-dependent commands up to ``~final_tick`` and writes the final g
 poses. The first run answers every tick; the second and third act only on every second tick and
 let the simulator run through the others (LockstepAck.next_stamp), which must not change anything.
 The third run shares the machine with two busy-looping processes (one per core).
+
+A controller that subscribes while the simulator is paused on an unanswered tick (a task
+manager that stepped before every move_base had connected) still receives that tick: the
+simulator re-sends it, paused or not.
 """
 import json
 import os
@@ -14,10 +18,15 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import time
 import unittest
 
 import rospy
 import rostest
+from std_srvs.srv import SetBool
+
+from marl_mrta.msg import SimTick
+from marl_mrta.srv import StepSim
 
 from marl_mrta.ros.process_group import stop_process_group
 
@@ -78,6 +87,27 @@ class LockstepTest(unittest.TestCase):
         self.assertEqual(loaded["poses"], first["poses"])
         self.assertEqual(second["collisions"], first["collisions"])
         self.assertEqual(loaded["collisions"], first["collisions"])
+
+    def test_a_paused_simulator_re_sends_an_unanswered_tick(self):
+        log = open(os.path.join(self.tmp, "paused.log"), "w")
+        simulator = subprocess.Popen(
+            ["roslaunch", "marl_mrta", "sim.launch", "robots:=2", "lockstep:=true", "rtf:=0",
+             "robot_description:=false"],
+            stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+        try:
+            rospy.wait_for_service("/simulator/step", timeout=60)
+            rospy.ServiceProxy("/simulator/pause", SetBool)(True)
+            stepped = rospy.ServiceProxy("/simulator/step", StepSim)(3)   # sent before anyone listens
+            ticks = []
+            subscriber = rospy.Subscriber("/simulator/tick", SimTick, lambda msg: ticks.append(msg.tick))
+            deadline = time.monotonic() + 5.0
+            while stepped.tick not in ticks and time.monotonic() < deadline:
+                rospy.rostime.wallsleep(0.05)
+            subscriber.unregister()
+        finally:
+            stop_process_group(simulator, 20.0)
+            log.close()
+        self.assertIn(stepped.tick, ticks, "the paused simulator did not re-send tick %d" % stepped.tick)
 
 
 if __name__ == "__main__":

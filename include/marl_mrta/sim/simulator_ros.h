@@ -56,11 +56,14 @@ class SimulatorRos {
   void advertise(ros::NodeHandle& nh, ros::NodeHandle& private_nh);
   void onCmdVel(size_t robot, const geometry_msgs::Twist::ConstPtr& msg);
   void onLockstepAck(const marl_mrta::LockstepAck::ConstPtr& msg);
+  // Services (simulator_services_ros.cpp).
   bool onReset(marl_mrta::ResetSim::Request& req, marl_mrta::ResetSim::Response& res);
   bool onPause(std_srvs::SetBool::Request& req, std_srvs::SetBool::Response& res);
   bool onStep(marl_mrta::StepSim::Request& req, marl_mrta::StepSim::Response& res);
   bool onRunUntil(marl_mrta::RunSim::Request& req, marl_mrta::RunSim::Response& res);
   void setPaused(bool paused);
+  int robotIndex(const std::string& ns) const;  // -1: no such robot
+
 
   void stepAndPublish();
   void publishState(const StepReport& report, bool initial);
@@ -68,6 +71,9 @@ class SimulatorRos {
   ros::Time stampOf(uint64_t tick) const;
   // First tick stamped at or after `time` (0 for time 0).
   uint64_t firstTickAtOrAfter(const ros::Time& time) const;
+  // Re-sends the current tick when a lock-step answer to it is missing and none was sent for a
+  // while (controllers that subscribed after it went out). Returns whether it did.
+  bool resendUnansweredTick(const ros::WallTime& now);
   void warnLockstepWait() const;
   void writeStats() const;
 
@@ -79,6 +85,7 @@ class SimulatorRos {
   ros::ServiceServer reset_srv_, pause_srv_, step_srv_, run_until_srv_;
   tf2_msgs::TFMessage tf_message_;  // every robot's transforms, refilled at each odometry tick
   marl_mrta::SimTick last_tick_;  // re-sent while lock-step answers are missing
+  ros::WallTime tick_sent_;        // when a tick was last published
   std::unique_ptr<LockstepGate> lockstep_;
   std::unique_ptr<GoalEndWatch> goal_ends_;  // ~run_until's until_goals_end_of
   std::unique_ptr<RealTimePacer> pacer_;
