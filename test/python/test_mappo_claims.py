@@ -11,7 +11,7 @@ from marl_mrta.mappo.config import ConfigError, config_from_dict
 from marl_mrta.mappo.networks import Actor
 from marl_mrta.mappo.policy import ActorPolicy, load_policy
 from marl_mrta.mappo.runner import Runner
-from marl_mrta.ros.decentralised import ChoiceBoard, DecentralisedPolicy
+from marl_mrta.evaluation.decentralised import ChoiceBoard, DecentralisedPolicy
 from marl_mrta.ros.robot_actor import ObservationError, RobotActor
 from marl_mrta.scenario import load_scenario
 from marl_mrta.tasks.config_reader import package_root
