@@ -41,7 +41,7 @@ from geometry_msgs.msg import Pose2D
 from move_base_msgs.msg import MoveBaseAction, MoveBaseActionResult, MoveBaseGoal
 from nav_msgs.msg import Odometry
 from rosgraph_msgs.msg import Log
-from std_srvs.srv import Empty, SetBool
+from std_srvs.srv import SetBool
 
 from marl_mrta.msg import CollisionEvent, LockstepAck
 from marl_mrta.srv import ResetSim, StepSim

@@ -2,8 +2,6 @@
 and how a bad option is refused."""
 import json
 
-import pytest
-
 from marl_mrta.mappo import bench
 from marl_mrta.mappo.bench_ros import merge_into
 

@@ -11,7 +11,6 @@ centres come closer than `collision_distance` counts one collision event for eac
 """
 from __future__ import annotations
 
-import math
 import random
 from dataclasses import dataclass
 from typing import List, Optional, Sequence, Set, Tuple

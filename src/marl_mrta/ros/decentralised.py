@@ -19,6 +19,7 @@ from typing import Callable, Dict, Optional, Sequence
 
 from ..evaluation.decentralised import (ACTOR_NODE, CHOICE_TOPIC, OBSERVATION_TOPIC, ActorTimeout, ChoiceBoard,
                                         DecentralisedPolicy, ObservationRow)
+from ..mappo.claims import ClaimRules
 
 
 class RosActorLinks:

@@ -221,7 +221,6 @@ class RosExecutor:
         """With the simulator paused: optionally step to the next aligned tick, then wait until
         every controller and the ground truth have caught up. Returns the sim time."""
         tick, stamp = self.sim.step(0)
-        rate = self.sim.config.physics_rate
         period = self._align_ticks() if align else 1
         ticks = (period - tick % period) % period
         if ticks == 0 and not self.sim.has_state(tick, stamp):
