@@ -67,6 +67,10 @@ class RosExecutor:
         config = self.sim.wait_ready(self.settings.graph_wait)
         for base in self.bases:
             wait_wall(base.connected, self.settings.graph_wait, f"{base.server_name} did not connect")
+        # A controller still starting (its tick subscription, its first costmaps) answers its
+        # first tick within graph_wait; simulator_lost_after is meant for a running graph.
+        self._pause(True)
+        self.sim.wait_caught_up(*self._advance(1), timeout_wall=self.settings.graph_wait)
         rospy.loginfo("simulator at %.0f Hz%s; move_base of %s connected", config.physics_rate,
                       ", lock-step" if config.lockstep else "", ", ".join(self.namespaces))
 

@@ -170,10 +170,11 @@ class SimulatorLink:
                     and all(self._acked[i] >= tick for i, ns in enumerate(self.robots)
                             if self.tracks_answers and config.answers_lockstep(ns)))
 
-    def wait_caught_up(self, tick: int, stamp: float) -> None:
-        """Waits until has_state(tick, stamp)."""
+    def wait_caught_up(self, tick: int, stamp: float, timeout_wall: Optional[float] = None) -> None:
+        """Waits until has_state(tick, stamp), at most `timeout_wall` s (default: the time after
+        which the simulator counts as lost)."""
         try:
-            wait_wall(lambda: self.has_state(tick, stamp), self.answer_wall,
+            wait_wall(lambda: self.has_state(tick, stamp), timeout_wall or self.answer_wall,
                       f"ground truth and lock-step answers of tick {tick}")
         except SimulatorLost as lost:
             raise SimulatorLost(f"{lost}; {self.describe_lag(tick, stamp)}") from None
