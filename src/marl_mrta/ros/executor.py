@@ -122,7 +122,10 @@ class RosExecutor:
                 self._await_early_pause(watched, deadline)
             self._pause(True)
             self.sim.wait_caught_up(*self.sim.step(0))   # every controller has seen the last tick
-            self._await_deadline_results(pending)
+            # A goal that ended on the last tick may have its result still in flight (it travels
+            # on another connection than the answer to that tick): it is cancelled too, and
+            # waiting for every cancelled goal to end waits for that result, which a cancel of
+            # an ended goal leaves as it was.
             self._cancel_running()
             end = min(self._settle(align=False), deadline)
         except SimulatorLost as lost:
@@ -197,18 +200,6 @@ class RosExecutor:
         last_end = max(int(round(self.bases[i].result.stamp * rate)) for i in watched)
         pause_stamp = int(math.ceil(last_end / align)) * align / rate
         self.clock.wait_until(lambda: self.clock.now() >= pause_stamp - 1e-9, deadline)
-
-    def _await_deadline_results(self, pending: Sequence[int]) -> None:
-        """A goal that ended on the last tick: move_base sent its result before its answer to
-        that tick, but on another connection, which may be read later. Every controller has
-        answered by now, so a result still missing is either in flight or there is none: a short
-        wait tells them apart."""
-        missing = [i for i in pending if self.bases[i].result is None]
-        if missing and not self.shared_clock:   # (runs on a shared clock do not repeat anyway)
-            try:
-                wait_wall(lambda: all(self.bases[i].result is not None for i in missing), 0.1, "results")
-            except SimulatorLost:
-                pass   # the goals are still running: cut by the deadline
 
     def _advance(self, ticks: int) -> Tuple[int, float]:
         """`ticks` more ticks: stepped when paused, waited for on a shared clock. Returns the
