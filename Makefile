@@ -50,8 +50,9 @@ demo: build
 bench: build
 	@$(ROS_ENV) && bash $(PKG_DIR)/tools/bench.sh
 
-lint: workspace
+lint: setup workspace
 	@$(ROS_ENV) && catkin_lint -W1 --strict --pkg marl_mrta
+	@cd $(PKG_DIR) && python3 -m pyflakes src/marl_mrta test $$(grep -l '^#!.*python' scripts/*) && echo "pyflakes: no problems"
 
 clean:
 	rm -rf $(PKG_DIR)/.ws
