@@ -1,4 +1,5 @@
 // The simulator's services: reset, pause, step and run_until (simulator_ros.h).
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -19,7 +20,7 @@ bool SimulatorRos::onReset(marl_mrta::ResetSim::Request& req, marl_mrta::ResetSi
     if (robot < 0) res.message = "unknown robot '" + req.robots[i] + "'";
     else poses.push_back({robot, {req.poses[i].x, req.poses[i].y, req.poses[i].theta}});
   }
-  if (req.reseed && req.seed < 0) res.message = "seed must be >= 0, got " + std::to_string(req.seed);
+  if (res.message.empty() && req.reseed && req.seed < 0) res.message = "seed must be >= 0, got " + std::to_string(req.seed);
   std::optional<uint64_t> episode_seed;
   if (req.reseed) episode_seed = static_cast<uint64_t>(req.seed);
   if (res.message.empty()) res.message = world_->reset(req.arena, poses, episode_seed);

@@ -64,7 +64,6 @@ class SimulatorRos {
   void setPaused(bool paused);
   int robotIndex(const std::string& ns) const;  // -1: no such robot
 
-
   void stepAndPublish();
   void publishState(const StepReport& report, bool initial);
   ros::Time stamp() const;  // of the current tick
