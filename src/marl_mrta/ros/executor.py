@@ -21,6 +21,7 @@ client's call, so such runs are not bit-repeatable.
 from __future__ import annotations
 
 import math
+import time
 from typing import List, Optional, Sequence, Tuple
 
 import rospy
@@ -67,12 +68,28 @@ class RosExecutor:
         config = self.sim.wait_ready(self.settings.graph_wait)
         for base in self.bases:
             wait_wall(base.connected, self.settings.graph_wait, f"{base.server_name} did not connect")
-        # A controller still starting (its tick subscription, its first costmaps) answers its
-        # first tick within graph_wait; simulator_lost_after is meant for a running graph.
         self._pause(True)
-        self.sim.wait_caught_up(*self._advance(1), timeout_wall=self.settings.graph_wait)
+        self._await_first_answers()
         rospy.loginfo("simulator at %.0f Hz%s; move_base of %s connected", config.physics_rate,
                       ", lock-step" if config.lockstep else "", ", ".join(self.namespaces))
+
+    def _await_first_answers(self) -> None:
+        """Steps until every controller's answer to a tick reaches this node, within graph_wait
+        (simulator_lost_after is meant for a running graph). An answer sent while this node's
+        subscription was still connecting is lost, and the paused simulator does not re-send a
+        tick its controllers have answered: the next tick brings new answers. The ticks spent
+        here change no episode (a reset restarts positions, costmaps and seeded noise)."""
+        deadline = time.monotonic() + self.settings.graph_wait
+        while True:
+            tick, stamp = self._advance(1)
+            try:
+                self.sim.wait_caught_up(tick, stamp, timeout_wall=min(1.0, max(0.1, deadline - time.monotonic())))
+                return
+            except SimulatorLost:
+                if time.monotonic() >= deadline:
+                    raise SimulatorLost(f"no ground truth and lock-step answers of a tick within "
+                                        f"{self.settings.graph_wait:.0f} s of wall time; "
+                                        f"{self.sim.describe_lag(tick, stamp)}") from None
 
     # ------------------------------------------------------------------ Executor
 
