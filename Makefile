@@ -41,8 +41,7 @@ build: setup workspace
 test: build
 	@rm -rf $(WS)/build/test_results/marl_mrta
 	@cd $(WS) && $(ROS_ENV) && catkin_make -j1 $(CATKIN_ARGS) run_tests
-	@cd $(WS) && $(ROS_ENV) && python3 $(PKG_DIR)/tools/test_summary.py build/test_results/marl_mrta
-	@cd $(WS) && $(ROS_ENV) && catkin_test_results build/test_results/marl_mrta
+	@cd $(WS) && $(ROS_ENV) && status=0 && { python3 $(PKG_DIR)/tools/test_summary.py build/test_results/marl_mrta || status=$$?; } && catkin_test_results build/test_results/marl_mrta && exit $$status
 
 demo: build
 	@$(ROS_ENV) && bash $(PKG_DIR)/tools/demo.sh

@@ -1,6 +1,8 @@
 """Prints one closing line over every JUnit file catkin wrote: 'tests: N passed, N failed, N skipped'.
 
-catkin_test_results gives the exit code; this line is the figure people read at the end of a run.
+Exits 1 when a test failed. That includes a result file that is empty or truncated: a test node
+that died before writing its results (e.g. shut down with its launch). rostest and
+catkin_test_results count such a test as passed.
 """
 import sys
 import xml.etree.ElementTree as ET
@@ -27,6 +29,11 @@ def count(results_dir: Path):
     return passed, failed, skipped
 
 
-if __name__ == "__main__":
-    passed, failed, skipped = count(Path(sys.argv[1]))
+def main(argv) -> int:
+    passed, failed, skipped = count(Path(argv[0]))
     print(f"tests: {passed} passed, {failed} failed, {skipped} skipped")
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
