@@ -135,7 +135,8 @@ void SimulatorRos::stepAndPublish() {
   const ros::WallTime simulated = ros::WallTime::now();
   publishState(report, false);
   timing_.simulate += (simulated - start).toSec();
-  timing_.publish += (ros::WallTime::now() - simulated).toSec();
+  tick_sent_ = ros::WallTime::now();
+  timing_.publish += (tick_sent_ - simulated).toSec();
 }
 
 void SimulatorRos::publishState(const StepReport& report, bool initial) {
@@ -185,7 +186,6 @@ void SimulatorRos::publishState(const StepReport& report, bool initial) {
   last_tick_.scan_published = scans;
   if (scans) last_tick_.last_scan_stamp = now;
   publishShared(tick_pub_, last_tick_);
-  tick_sent_ = ros::WallTime::now();
 }
 
 bool SimulatorRos::resendUnansweredTick(const ros::WallTime& now) {
@@ -200,6 +200,7 @@ int SimulatorRos::run() {
   timing_.start = timing_.paused_since = ros::WallTime::now();
   paused_ = config_.start_paused;
   publishState(StepReport{}, true);
+  tick_sent_ = timing_.start;
   ros::WallTime tick_stepped = timing_.start;
   while (ros::ok() && !stop_requested_) {
     queue.callAvailable();
