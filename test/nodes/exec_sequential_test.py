@@ -18,9 +18,9 @@ import unittest
 import rospy
 import rostest
 
-from marl_mrta.mappo.cli import main as train_main
+from marl_mrta.apps.train import main as train_main
 from marl_mrta.msg import RobotObservation, TaskChoice
-from marl_mrta.tasks.config_reader import package_root
+from marl_mrta.common.paths import package_root
 
 ROBOTS = ("tb3_0", "tb3_1")
 SCENARIO = str(package_root() / "scenarios" / "lab_2r.xml")

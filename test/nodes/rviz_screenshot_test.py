@@ -23,7 +23,7 @@ import tf2_ros
 from geometry_msgs.msg import TransformStamped
 from nav_msgs.msg import OccupancyGrid, Odometry
 
-from marl_mrta.mapping.occupancy_map import FREE, OCCUPIED, load_map
+from marl_mrta.model.occupancy_map import FREE, OCCUPIED, load_map
 from marl_mrta.ros.process_group import stop_process_group
 
 BACKGROUND = np.array([48, 48, 48])        # rviz's default background colour (the config's)

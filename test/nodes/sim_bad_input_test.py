@@ -2,7 +2,8 @@
 """rostest: bad input makes the simulator exit 1 with one FATAL line naming file/field and problem.
 
 Runs the `simulator` binary against the test's master once per case, each under its own
-node name with config/sim.yaml plus one bad setting in its private namespace.
+node name with the parameters sim.launch loads (config/robot_burger.yaml, config/sim.yaml,
+config/noise_profiles.yaml under noise_profiles) plus one bad setting in its private namespace.
 """
 import os
 import re
@@ -22,8 +23,12 @@ class BadInputTest(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
         cls.package = rospkg.RosPack().get_path("marl_mrta")
-        with open(os.path.join(cls.package, "config", "sim.yaml")) as f:
-            cls.defaults = yaml.safe_load(f)
+        cls.defaults = {}
+        for name in ("robot_burger.yaml", "sim.yaml"):
+            with open(os.path.join(cls.package, "config", name)) as f:
+                cls.defaults.update(yaml.safe_load(f))
+        with open(os.path.join(cls.package, "config", "noise_profiles.yaml")) as f:
+            cls.defaults["noise_profiles"] = yaml.safe_load(f)
         cls.defaults["map_file"] = os.path.join(cls.package, "maps", "lab.yaml")
         cls.binary = find_node("marl_mrta", "simulator")[0]
         cls.case = 0
@@ -81,7 +86,19 @@ class BadInputTest(unittest.TestCase):
         self.assert_one_fatal_line(["<ns>/robts: unknown parameter"], robts=3)
 
     def test_wrong_parameter_type(self):
-        self.assert_one_fatal_line(["<ns>/rtf: must be a number, got a string 'fast'"], rtf="fast")
+        self.assert_one_fatal_line(["<ns>/rtf: expected a number, got 'fast'"], rtf="fast")
+
+    def test_bad_noise_profile_value(self):
+        profiles = dict(self.defaults["noise_profiles"])
+        profiles["measured_tb3"] = dict(profiles["measured_tb3"], lidar_dropout=[0.04, 0.02])
+        self.assert_one_fatal_line(["<ns>/noise_profiles/measured_tb3/lidar_dropout: must satisfy 0 <= min <= max <= 1, "
+                                    "got [0.04, 0.02]"], noise_profiles=profiles)
+
+    def test_misspelt_noise_profile_key(self):
+        profiles = dict(self.defaults["noise_profiles"])
+        profiles["measured_tb3"] = dict(profiles["measured_tb3"], pause_rat=0.1)
+        self.assert_one_fatal_line(["<ns>/noise_profiles/measured_tb3/pause_rat: unknown parameter"],
+                                   noise_profiles=profiles)
 
     def test_unknown_lockstep_robot(self):
         self.assert_one_fatal_line(["<ns>/lockstep_robots: unknown robot 'tb3_7' (robots: tb3_0, tb3_1)"],

@@ -39,6 +39,7 @@ class SimLocalizationTest(unittest.TestCase):
         rospy.wait_for_message("/clock", Clock, timeout=60)
         cls.lock = threading.Lock()
         cls.simulator, cls.node, cls.odom, cls.truth = {}, {}, {}, {}
+        cls.orders = []  # per /tf message of the simulator: map -> odom before odom -> base_footprint
         rospy.Subscriber("/tf", TFMessage, cls.on_tf, queue_size=None)
         rospy.Subscriber("/tf_from_fake_localization", TFMessage, cls.on_node_tf, queue_size=None)
         rospy.Subscriber("/%s/base_pose_ground_truth" % NS, Odometry, cls.on_truth, queue_size=None)
@@ -56,6 +57,9 @@ class SimLocalizationTest(unittest.TestCase):
     @classmethod
     def on_tf(cls, msg):
         with cls.lock:
+            frames = [(t.header.frame_id, t.child_frame_id) for t in msg.transforms]
+            if ("map", ODOM) in frames and (ODOM, BASE) in frames:
+                cls.orders.append(frames.index(("map", ODOM)) < frames.index((ODOM, BASE)))
             for t in msg.transforms:
                 key = t.header.stamp.to_nsec()
                 if (t.header.frame_id, t.child_frame_id) == ("map", ODOM):
@@ -89,6 +93,16 @@ class SimLocalizationTest(unittest.TestCase):
         # Odometry drifted (measured_tb3): the transform changed, so the comparison meant something.
         first, last = planar(pairs[0][0]), planar(pairs[-1][0])
         self.assertGreater(math.hypot(last[0] - first[0], last[1] - first[1]) + abs(last[2] - first[2]), 1e-3)
+
+    def test_map_odom_precedes_odom_base_in_each_message(self):
+        # A tf listener inserts a message's transforms one at a time. Stock costmap_2d and DWA look
+        # up odom -> base at its latest stamp, then map -> odom at that stamp: between the two
+        # inserts, map -> odom must already be there.
+        with self.lock:
+            orders = list(self.orders)
+        self.assertGreater(len(orders), 100, "too few /tf messages with both transforms")
+        self.assertEqual([], [i for i, first in enumerate(orders) if not first],
+                         "messages in which odom -> base_footprint comes before map -> odom")
 
     def test_map_odom_base_is_the_ground_truth(self):
         with self.lock:

@@ -26,8 +26,8 @@ from nav_msgs.msg import Odometry
 from visualization_msgs.msg import Marker, MarkerArray
 
 from marl_mrta.baselines.random_policy import RandomPolicy
-from marl_mrta.evaluation.cli import main as evaluate_main
-from marl_mrta.evaluation.runner import run_episodes
+from marl_mrta.apps.evaluate import main as evaluate_main
+from marl_mrta.evaluation.loop import run_episodes
 from marl_mrta.msg import IdleTime, TaskAssignment, TaskReached
 from marl_mrta.ros import markers
 from marl_mrta.ros.env_client import RosTaskEnvClient
@@ -184,15 +184,15 @@ class TaskEpisodesTest(unittest.TestCase):
         out = env.reset(seed=5)
         # Drive away (robot 0 to A2, robot 1 to B3), then reset.
         out = env.step([self.scenario.task_index("A2"), self.scenario.task_index("B3")])
-        self.assertTrue(any(out.info["reached"]))
+        self.assertTrue(any(out.info.reached))
         moved = [math.hypot(self.truth[ns].pose.pose.position.x - r.start.x,
                             self.truth[ns].pose.pose.position.y - r.start.y)
                  for ns, r in zip(self.robots, self.scenario.robots)]
         self.assertGreater(min(moved), 1.0)
         stamp = rospy.get_time()
         out = env.reset(seed=6)
-        self.assertEqual(out.info["step"], 0)
-        self.assertFalse(any(out.info["finished"]))
+        self.assertEqual(out.info.step, 0)
+        self.assertFalse(any(out.info.finished))
         # A ground truth stamped after `stamp` may still be one published before the reset took
         # effect (the clock runs on between the step and the reset): wait for the start poses.
         def at_start(ns, robot):

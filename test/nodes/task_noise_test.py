@@ -22,7 +22,7 @@ import unittest
 import rospy
 import rostest
 
-from marl_mrta.evaluation.cli import main as evaluate_main
+from marl_mrta.apps.evaluate import main as evaluate_main
 from marl_mrta.ros.env_client import RosTaskEnvClient
 from marl_mrta.ros.process_group import stop_process_group
 

@@ -73,9 +73,9 @@ class SimulatorLostTest(unittest.TestCase):
         output = result["output"]
         self.assertTrue(output.truncated)
         self.assertFalse(output.done)
-        reason = output.info["abort_reason"]
+        reason = output.info.abort_reason
         self.assertIn("/clock", reason)
-        self.assertEqual(output.info["episode"].abort_reason, reason)
+        self.assertEqual(output.info.episode.abort_reason, reason)
 
         deadline = time.monotonic() + 10.0
         while not any("episode aborted" in text for _, text in self.errors):

@@ -21,7 +21,7 @@ import rospy
 import rostest
 import torch
 
-from marl_mrta.tasks.config_reader import package_root
+from marl_mrta.common.paths import package_root
 
 SCENARIO = str(package_root() / "scenarios" / "lab_2r.xml")
 # Two updates of 10 decision steps, GRU chunks of 5, and the final greedy evaluation.

@@ -25,7 +25,7 @@ import rospy
 import rostest
 import torch
 
-from marl_mrta.tasks.config_reader import package_root
+from marl_mrta.common.paths import package_root
 
 SCENARIO = str(package_root() / "scenarios" / "lab_2r.xml")
 # 10 decision steps per update over 2 arenas, GRU chunks of 5, one greedy episode per arena.

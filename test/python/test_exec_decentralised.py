@@ -7,12 +7,12 @@ import pytest
 import torch
 
 from marl_mrta.env.factory import make_env
-from marl_mrta.evaluation.runner import run_episodes
+from marl_mrta.evaluation.loop import run_episodes
 from marl_mrta.mappo.networks import Actor
 from marl_mrta.mappo.policy import ActorPolicy
 from marl_mrta.evaluation.decentralised import ActorTimeout, ChoiceBoard, DecentralisedPolicy
-from marl_mrta.ros.robot_actor import ObservationError, RobotActor
-from marl_mrta.tasks.config_reader import package_root
+from marl_mrta.evaluation.robot_actor import ObservationError, RobotActor
+from marl_mrta.common.paths import package_root
 
 SCENARIO = package_root() / "scenarios" / "lab_2r.xml"
 

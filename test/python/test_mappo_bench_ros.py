@@ -2,8 +2,8 @@
 and how a bad option is refused."""
 import json
 
-from marl_mrta.mappo import bench
-from marl_mrta.mappo.bench_ros import merge_into
+from marl_mrta.apps import bench_mappo as bench
+from marl_mrta.apps.bench_mappo_ros import merge_into
 
 
 def ros_section(**modes):

@@ -5,16 +5,17 @@ import pytest
 import torch
 
 from marl_mrta.env.factory import make_env
-from marl_mrta.evaluation.runner import run_episodes
+from marl_mrta.evaluation.loop import run_episodes
 from marl_mrta.mappo.claims import ClaimRules, claimed_flags, with_claims
 from marl_mrta.mappo.config import ConfigError, config_from_dict
 from marl_mrta.mappo.networks import Actor
 from marl_mrta.mappo.policy import ActorPolicy, load_policy
 from marl_mrta.mappo.runner import Runner
+from marl_mrta.evaluation.training import on_new_env
 from marl_mrta.evaluation.decentralised import ChoiceBoard, DecentralisedPolicy
-from marl_mrta.ros.robot_actor import ObservationError, RobotActor
-from marl_mrta.scenario import load_scenario
-from marl_mrta.tasks.config_reader import package_root
+from marl_mrta.evaluation.robot_actor import ObservationError, RobotActor
+from marl_mrta.model.scenario import load_scenario
+from marl_mrta.common.paths import package_root
 
 LAB_4R = package_root() / "scenarios" / "lab_4r.xml"
 NONE = 8   # lab_4r: 8 tasks, the None action is index 8
@@ -84,7 +85,8 @@ def test_training_never_gives_a_task_twice_in_a_step(tmp_path):
     only after their A task is finished or claimed (would fail with simultaneous decisions,
     which sample duplicates from an untrained actor)."""
     scenario = load_scenario(LAB_4R)
-    runner = Runner(small_config(), lambda: make_env(LAB_4R, "embedded", mask="finished"), scenario="lab_4r",
+    build = lambda: make_env(LAB_4R, "embedded", mask="finished")  # noqa: E731
+    runner = Runner(small_config(), build, evaluate=on_new_env(build), scenario="lab_4r",
                     seed=0, out_dir=tmp_path, tensorboard=False, plots=False)
     runner.start()
     runner.collect()
@@ -107,7 +109,8 @@ def test_team_actor_and_per_robot_actors_decide_alike(tmp_path):
     """act_team (evaluation) and the robots' own actors, asked in turn with the claimed tasks
     (DecentralisedPolicy), give the same episodes; an actor file keeps the claim rules."""
     config = small_config()
-    runner = Runner(config, lambda: make_env(LAB_4R, "embedded", mask="finished"), scenario="lab_4r", seed=1,
+    build = lambda: make_env(LAB_4R, "embedded", mask="finished")  # noqa: E731
+    runner = Runner(config, build, evaluate=on_new_env(build), scenario="lab_4r", seed=1,
                     out_dir=tmp_path, tensorboard=False, plots=False)
     runner.start()
     runner.train_one_update()

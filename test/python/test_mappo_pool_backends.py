@@ -14,12 +14,14 @@ import numpy as np
 import pytest
 
 from marl_mrta.env.factory import make_env
-from marl_mrta.mappo.cli import env_factory, main as train_main, parse_overrides
-from marl_mrta.mappo.config import ConfigError, config_from_dict
+from marl_mrta.apps.train import main as train_main, parse_overrides
+from marl_mrta.evaluation.training import in_pool
+from marl_mrta.common.config import ConfigError
+from marl_mrta.mappo.config import config_from_dict
 from marl_mrta.mappo.env_pool import EnvPool, episode_seed
 from marl_mrta.mappo.runner import Runner
-from marl_mrta.mappo.training_reward import TrainingRewardEnv, training_reward
-from marl_mrta.scenario import load_scenario
+from marl_mrta.mappo.training_env import TrainingRewardEnv, embedded_factory, training_reward
+from marl_mrta.model.scenario import load_scenario
 
 from test_mappo_runner import SCENARIO, TINY
 
@@ -58,7 +60,7 @@ def test_training_reward_equals_an_environment_built_with_it():
 
 def _pool(parallel, replayable=True, n=3, seed=5):
     config = config_from_dict(dict(TINY))
-    build = env_factory(SCENARIO, config)
+    build = embedded_factory(SCENARIO, config)
     return EnvPool([build() for _ in range(n)], seed, parallel=parallel, replayable=replayable)
 
 
@@ -91,7 +93,7 @@ def test_pool_that_cannot_replay_restarts_its_episodes_on_restore():
     assert fresh.episode_index == [k + 1 for k in snapshot["episode_index"]]
     assert fresh.episode_actions == [[], []]
     # The new episodes start where a reset with their seeds starts.
-    env = env_factory(SCENARIO, config_from_dict(dict(TINY)))()
+    env = embedded_factory(SCENARIO, config_from_dict(dict(TINY)))()
     expected = env.reset(seed=episode_seed(5, 1, fresh.episode_index[1]))
     np.testing.assert_array_equal(step.obs[1], expected.obs)
 
@@ -118,11 +120,11 @@ class _StopAfter:
 
 def test_runner_on_a_pool_that_cannot_replay(tmp_path):
     config = config_from_dict({**TINY, "total_env_steps": 24 * 4, "eval_every": 2})
-    build = env_factory(SCENARIO, config)
+    build = embedded_factory(SCENARIO, config)
     box = []
     envs = [_StopAfter(build(), box, 5), build()]
     pool = EnvPool(envs, 7, parallel=True, replayable=False)
-    runner = Runner(config, None, scenario=SCENARIO, seed=7, out_dir=tmp_path / "run", log=lambda line: None,
+    runner = Runner(config, None, evaluate=in_pool(pool), scenario=SCENARIO, seed=7, out_dir=tmp_path / "run", log=lambda line: None,
                     tensorboard=False, plots=False, pool=pool)
     box.append(runner)
     runner.start()
@@ -136,8 +138,9 @@ def test_runner_on_a_pool_that_cannot_replay(tmp_path):
     assert data["env_pool"]["episode_actions"] == [[], []]
     assert all(len(e["robot_tasks"]) == 2 for e in data["history"]["episodes"])
 
-    resumed = Runner.resume(tmp_path / "run", None, log=lambda line: None, tensorboard=False, plots=False,
-                            pool=EnvPool([build(), build()], 7, parallel=True, replayable=False))
+    pool = EnvPool([build(), build()], 7, parallel=True, replayable=False)
+    resumed = Runner.resume(tmp_path / "run", None, evaluate=in_pool(pool), log=lambda line: None, tensorboard=False,
+                            plots=False, pool=pool)
     assert resumed.update == 2 and bool(resumed.episode_start.all()) and float(resumed.hidden.abs().sum()) == 0.0
     final = resumed.run()
     assert final.updates == 4 and final.env_steps == 96
@@ -147,9 +150,10 @@ def test_runner_on_a_pool_that_cannot_replay(tmp_path):
 
 def test_pool_size_must_match_the_settings(tmp_path):
     config = config_from_dict(dict(TINY))
-    build = env_factory(SCENARIO, config)
+    build = embedded_factory(SCENARIO, config)
     with pytest.raises(Exception, match="n_envs: the settings ask for 2 environments, the pool has 3"):
-        Runner(config, None, scenario=SCENARIO, seed=0, out_dir=tmp_path, pool=EnvPool([build() for _ in range(3)], 0))
+        pool = EnvPool([build() for _ in range(3)], 0)
+        Runner(config, None, evaluate=in_pool(pool), scenario=SCENARIO, seed=0, out_dir=tmp_path, pool=pool)
 
 
 def test_set_overrides_and_arenas_errors(tmp_path, capsys):
@@ -168,7 +172,7 @@ def test_ros_backend_without_a_graph_is_one_line(tmp_path):
     """No master (an unused port): one line naming it and what to start, exit 1, no traceback."""
     # The sourced workspace's PYTHONPATH: its marl_mrta has the generated services too.
     env = dict(os.environ, ROS_MASTER_URI="http://localhost:1")
-    run = subprocess.run([sys.executable, "-c", "import sys; from marl_mrta.mappo.cli import main; "
+    run = subprocess.run([sys.executable, "-c", "import sys; from marl_mrta.apps.train import main; "
                           "sys.exit(main(['--backend', 'ros', '--arenas', '2', '--out', sys.argv[1]]))",
                           str(tmp_path / "run")], env=env, capture_output=True, text=True, timeout=600)
     assert run.returncode == 1, run.stderr
@@ -222,12 +226,12 @@ class _Counted:
 
 def test_arenas_of_a_simulation_do_not_wait_for_each_others_steps(tmp_path):
     config = config_from_dict({**TINY, "total_env_steps": 24})
-    build = env_factory(SCENARIO, config)
+    build = embedded_factory(SCENARIO, config)
     fast = _Counted(build())
     slow = _WaitsForOther(build(), fast, 3)
     pool = EnvPool([slow, fast], 7, parallel=True, replayable=False)
     assert pool.independent
-    runner = Runner(config, None, scenario=SCENARIO, seed=7, out_dir=tmp_path / "run", log=lambda line: None,
+    runner = Runner(config, None, evaluate=in_pool(pool), scenario=SCENARIO, seed=7, out_dir=tmp_path / "run", log=lambda line: None,
                     tensorboard=False, plots=False, pool=pool)
     runner.start()
     assert runner.run().env_steps == 24
@@ -236,9 +240,9 @@ def test_arenas_of_a_simulation_do_not_wait_for_each_others_steps(tmp_path):
 
 def test_each_arena_column_of_the_buffer_is_that_arenas_own_trajectory(tmp_path):
     config = config_from_dict({**TINY, "batch_size": 40, "chunk_length": 4})
-    build = env_factory(SCENARIO, config)
+    build = embedded_factory(SCENARIO, config)
     pool = EnvPool([build(), build()], 11, parallel=True, replayable=False)
-    runner = Runner(config, None, scenario=SCENARIO, seed=11, out_dir=tmp_path / "run", log=lambda line: None,
+    runner = Runner(config, None, evaluate=in_pool(pool), scenario=SCENARIO, seed=11, out_dir=tmp_path / "run", log=lambda line: None,
                     tensorboard=False, plots=False, pool=pool)
     runner.start()
     finished = runner.collect()
@@ -293,11 +297,11 @@ class _WaitsForFailure(_Counted):
 
 def test_an_arena_that_fails_stops_the_other_at_its_next_step(tmp_path):
     config = config_from_dict({**TINY, "batch_size": 200, "chunk_length": 4, "total_env_steps": 200})
-    build = env_factory(SCENARIO, config)
+    build = embedded_factory(SCENARIO, config)
     failing = _Fails(build())
     healthy = _WaitsForFailure(build(), failing)
     pool = EnvPool([healthy, failing], 7, parallel=True, replayable=False)
-    runner = Runner(config, None, scenario=SCENARIO, seed=7, out_dir=tmp_path / "run", log=lambda line: None,
+    runner = Runner(config, None, evaluate=in_pool(pool), scenario=SCENARIO, seed=7, out_dir=tmp_path / "run", log=lambda line: None,
                     tensorboard=False, plots=False, pool=pool)
     runner.start()
     with pytest.raises(RuntimeError, match="manager lost"):

@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 import torch
 
-from marl_mrta.mappo.cli import env_factory
+from marl_mrta.evaluation.training import on_new_env
+from marl_mrta.mappo.training_env import embedded_factory
 from marl_mrta.mappo.config import config_from_dict, load_config, resolve_preset
 from marl_mrta.mappo.policy import PolicyFileError, load_policy
 from marl_mrta.mappo.runner import Runner, RunError
@@ -30,8 +31,9 @@ TINY = dict(n_envs=2, batch_size=24, minibatch_size=12, chunk_length=4, epochs=2
 
 def _runner(tmp_path, **overrides):
     config = config_from_dict({**TINY, **overrides})
-    return Runner(config, env_factory(SCENARIO, config), scenario=SCENARIO, seed=7, out_dir=tmp_path / "run",
-                  log=lambda line: None, tensorboard=False, plots=False)
+    make_env = embedded_factory(SCENARIO, config)
+    return Runner(config, make_env, evaluate=on_new_env(make_env), scenario=SCENARIO, seed=7,
+                  out_dir=tmp_path / "run", log=lambda line: None, tensorboard=False, plots=False)
 
 
 def _flat_state(runner):
@@ -60,7 +62,8 @@ def test_checkpoint_then_resume_gives_bit_identical_next_update(tmp_path):
     assert allowed.all() and not first.buffer.action_mask.all()
     assert first.buffer.episode_start[1:].any()                  # the batch crossed episode ends
 
-    resumed = Runner.resume(tmp_path / "run", env_factory(SCENARIO, first.config), log=lambda line: None,
+    make_env = embedded_factory(SCENARIO, first.config)
+    resumed = Runner.resume(tmp_path / "run", make_env, evaluate=on_new_env(make_env), log=lambda line: None,
                             tensorboard=False, plots=False)
     assert resumed.update == 2
     metrics = resumed.train_one_update()
@@ -177,5 +180,5 @@ def test_resume_rejects_contradicting_settings(tmp_path):
 def test_presets_build_environments():
     for preset in ("paper", "tuned"):
         config = load_config(resolve_preset(preset))
-        env = env_factory(SCENARIO, config)()
+        env = embedded_factory(SCENARIO, config)()
         assert env.settings.mask == config.action_mask

@@ -71,6 +71,10 @@ def test_builtin_and_stock_get_the_same_parameters():
     _, stock = load("launch/include/robot_nav.launch", "ns:=tb3_1", "nav:=stock", "localization:=fake")
     assert builtin_nodes["/tb3_1/move_base"].package == "marl_mrta"
     assert builtin_nodes["/tb3_1/fake_localization"].package == "marl_mrta"
+    # ... but for fake_localization's post-dating of map -> odom: 0 keeps the built-in lock-step
+    # lookups exact; stock move_base needs the stock default 0.1 s (docs/navigation.md).
+    tolerance = "/tb3_1/fake_localization/transform_tolerance"
+    assert (builtin.pop(tolerance), stock.pop(tolerance)) == (0.0, 0.1)
     assert builtin == stock
     assert any(k.startswith("/tb3_1/move_base/DWAPlannerROS/") for k in builtin)
 

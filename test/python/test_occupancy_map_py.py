@@ -10,7 +10,7 @@ import pytest
 REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO / "src"))  # runnable without a sourced catkin workspace
 
-from marl_mrta.mapping.occupancy_map import (  # noqa: E402
+from marl_mrta.model.occupancy_map import (  # noqa: E402
     FREE, OCCUPIED, UNKNOWN, GridCell, MapFileError, MapOrigin, OccupancyMap, load_map,
     read_pgm, save_map)
 

@@ -10,7 +10,7 @@ pytest.importorskip("marl_mrta.msg", reason="generated messages: source the catk
 from marl_mrta.env.factory import make_env  # noqa: E402
 from marl_mrta.msg import TaskEnvOutput  # noqa: E402
 from marl_mrta.ros.conversions import from_message, to_message  # noqa: E402
-from marl_mrta.tasks.schedule import EpisodeRecord  # noqa: E402
+from marl_mrta.model.schedule import EpisodeRecord  # noqa: E402
 
 from pathlib import Path  # noqa: E402
 
@@ -49,13 +49,11 @@ def test_a_whole_episode_survives_serialisation():
         output = env.step(actions)
         back = from_message(over_the_wire(to_message(output)))
         assert_same(output, back)
-        assert back.info["finished_task"] == output.info["finished_task"]
-        assert back.info["finish_order"] == output.info["finish_order"]
-        assert back.info["nav_time"] == pytest.approx(output.info["nav_time"])
+        assert back.info == output.info            # typed fields, exact to the bit
     assert output.done
-    record = back.info["episode"]
-    assert isinstance(record, EpisodeRecord)
-    original = output.info["episode"]
+    record = back.info.episode
+    assert isinstance(record, EpisodeRecord) and back.info.step == 4 and not back.info.abort_reason
+    original = output.info.episode
     assert record.to_dict() == original.to_dict()
     assert record.logic_consistent and record.robot_task_lists() == original.robot_task_lists()
 

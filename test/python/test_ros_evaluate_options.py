@@ -2,7 +2,7 @@
 default output name says the executor, roslaunch's remapping arguments are ignored."""
 from pathlib import Path
 
-from marl_mrta.evaluation.cli import main, parse_args
+from marl_mrta.apps.evaluate import main, parse_args
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -19,7 +19,7 @@ def test_roslaunch_remappings_are_ignored():
 
 
 def test_embedded_default_output_name_is_unchanged(tmp_path, monkeypatch):
-    import marl_mrta.evaluation.cli as cli
+    import marl_mrta.apps.evaluate as cli
     monkeypatch.setattr(cli, "package_root", lambda: tmp_path)
     assert main(["--method", "exact", "--episodes", "1", "--quiet",
                  "--scenario", str(ROOT / "scenarios" / "lab_2r.xml")]) == 0

@@ -5,7 +5,7 @@ from pathlib import Path
 import yaml
 
 from marl_mrta.ros.launch_args import scenario_value
-from marl_mrta.scenario import load_scenario
+from marl_mrta.model.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -3,7 +3,8 @@ value one line naming the parameter."""
 import pytest
 
 from marl_mrta.ros.manager_settings import read_manager_settings
-from marl_mrta.tasks.config_reader import ConfigError, default_config_path, read_yaml
+from marl_mrta.common.config import ConfigError, read_yaml
+from marl_mrta.common.paths import default_config_path
 
 NODE = "/rl_task_allocation_manager"
 
@@ -32,10 +33,10 @@ def test_parameters_override_defaults_and_the_output_parameter_is_ignored():
     ({}, NODE + "/scenario: missing: give the scenario XML file"),
     ({"scenario": ""}, NODE + "/scenario: missing"),
     ({"scenario": "s.xml", "mask": "often"}, NODE + "/mask: 'often' is not one of none, finished, logic"),
-    ({"scenario": "s.xml", "arena": -1}, NODE + "/arena: expected an integer >= 0, got -1"),
-    ({"scenario": "s.xml", "arena": True}, NODE + "/arena: expected an integer >= 0, got True"),
-    ({"scenario": "s.xml", "simulator_lost_after": 0}, NODE + "/simulator_lost_after: expected a number > 0, got 0"),
-    ({"scenario": "s.xml", "align_period": "1s"}, NODE + "/align_period: expected a number >= 0, got '1s'"),
+    ({"scenario": "s.xml", "arena": -1}, NODE + "/arena: must be >= 0, got -1"),
+    ({"scenario": "s.xml", "arena": True}, NODE + "/arena: expected an integer, got True"),
+    ({"scenario": "s.xml", "simulator_lost_after": 0}, NODE + "/simulator_lost_after: must be > 0.0, got 0.0"),
+    ({"scenario": "s.xml", "align_period": "1s"}, NODE + "/align_period: expected a number, got '1s'"),
     ({"scenario": "s.xml", "robot_prefix": "arena_1"}, NODE + "/robot_prefix: 'arena_1' must be empty or"),
     ({"scenario": "s.xml", "robot_prefix": "/arena_1/"}, NODE + "/robot_prefix: '/arena_1/' must be empty or"),
     ({"scenario": "s.xml", "map_frame": ""}, NODE + "/map_frame: expected a non-empty string, got ''"),

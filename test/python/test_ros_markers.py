@@ -9,7 +9,7 @@ pytest.importorskip("visualization_msgs.msg", reason="ROS message packages are n
 from visualization_msgs.msg import Marker  # noqa: E402
 
 from marl_mrta.ros import markers  # noqa: E402
-from marl_mrta.scenario import load_scenario  # noqa: E402
+from marl_mrta.model.scenario import load_scenario  # noqa: E402
 
 LAB_2R = Path(__file__).resolve().parents[2] / "scenarios" / "lab_2r.xml"
 

@@ -11,8 +11,8 @@ import pytest
 REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO / "src"))  # runnable without a sourced catkin workspace
 
-from marl_mrta.mapping.occupancy_map import FREE, OCCUPIED, load_map  # noqa: E402
-from marl_mrta.mapping.sdf_to_map import (  # noqa: E402
+from marl_mrta.model.occupancy_map import FREE, OCCUPIED, load_map  # noqa: E402
+from marl_mrta.model.sdf_to_map import (  # noqa: E402
     HeightBand, MapRequest, SdfError, sdf_to_occupancy_map)
 
 SCRIPT = REPO / "scripts" / "sdf_to_map"

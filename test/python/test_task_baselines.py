@@ -1,4 +1,4 @@
-"""Baselines: the exact solver equals brute-force enumeration (through tasks/rules.py) on random
+"""Baselines: the exact solver equals brute-force enumeration (through model/rules.py) on random
 small instances; its batched rules equal the scalar rules; plans replay in the environment to
 their predicted makespan; the GA reaches the optimum on lab_2r; auction and random behave."""
 import itertools
@@ -17,8 +17,8 @@ from marl_mrta.baselines.random_policy import RandomPolicy
 from marl_mrta.baselines.settings import load_baseline_settings
 from marl_mrta.env.factory import make_env
 from marl_mrta.evaluation.policies import PlanPolicy
-from marl_mrta.evaluation.runner import run_episodes
-from marl_mrta.tasks.rules import resolve_step
+from marl_mrta.evaluation.loop import run_episodes
+from marl_mrta.model.rules import resolve_step
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -49,7 +49,7 @@ def scalar_step(inst, finished, positions, goals):
 
 def brute_force_makespan(inst: SchedulingInstance) -> float:
     """Every sequence of joint actions (all-None left out: it changes nothing but the clock),
-    stepped through tasks/rules.py; a sequence is dropped when it finishes a task out of order;
+    stepped through model/rules.py; a sequence is dropped when it finishes a task out of order;
     a path is cut when it reaches a state already reached at least as early, or costs more
     than the best complete sequence so far."""
     joint = [list(a) for a in itertools.product(list(range(inst.n_tasks)) + [None], repeat=inst.n_robots)

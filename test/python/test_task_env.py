@@ -8,7 +8,7 @@ import pytest
 
 from marl_mrta.baselines.random_policy import RandomPolicy
 from marl_mrta.env.factory import make_env
-from marl_mrta.evaluation.runner import run_episodes
+from marl_mrta.evaluation.loop import run_episodes
 
 ROOT = Path(__file__).resolve().parents[2]
 LAB_2R = ROOT / "scenarios" / "lab_2r.xml"
@@ -27,7 +27,7 @@ def test_precedence_violation_is_detected(env):
     env.reset(seed=0)
     b1, a3 = ids(env, "B1", "A3")
     out = env.step([b1, a3])
-    assert out.info["correct_order"] == [False, True]
+    assert out.info.correct_order == [False, True]
     assert env.task_correct[b1] is False and env.task_correct[a3] is True
     record = env.record
     entry = [e for e in record.entries if e.task == b1][0]
@@ -40,23 +40,23 @@ def test_an_episode_with_a_violation_is_not_logic_consistent(env):
     for joint in ([b1, a3], [a1, a4], [a2, b3], [b2, b4]):
         out = env.step(joint)
     assert out.done
-    record = out.info["episode"]
+    record = out.info.episode
     assert record.complete and not record.logic_consistent
     env.reset(seed=0)
     for joint in ([a1, a3], [a2, a4], [b1, b3], [b2, b4]):
         out = env.step(joint)
-    assert out.done and out.info["episode"].logic_consistent
-    assert out.info["episode"].robot_task_lists() == [[a1, a2, b1, b2], [a3, a4, b3, b4]]
+    assert out.done and out.info.episode.logic_consistent
+    assert out.info.episode.robot_task_lists() == [[a1, a2, b1, b2], [a3, a4, b3, b4]]
 
 
 def test_same_task_twice_in_a_step_finishes_once_and_wastes_the_later_trip(env):
     env.reset(seed=0)
     a1 = ids(env, "A1")[0]
     out = env.step([a1, a1])
-    assert out.info["finished_task"] == [a1, None]      # robot 0 starts much closer
+    assert out.info.finished_task == [a1, None]      # robot 0 starts much closer
     assert env.n_finished == 1
-    assert out.info["step_duration"] == pytest.approx(max(out.info["nav_time"]))
-    assert out.info["idle_time"][1] == pytest.approx(0.0)
+    assert out.info.step_duration == pytest.approx(max(out.info.nav_time))
+    assert out.info.idle_time[1] == pytest.approx(0.0)
 
 
 def test_an_already_finished_task_is_driven_to_but_not_finished_again(env):
@@ -64,16 +64,16 @@ def test_an_already_finished_task_is_driven_to_but_not_finished_again(env):
     a1, a3 = ids(env, "A1", "A3")
     env.step([a1, a3])
     out = env.step([env.n_tasks, a1])   # robot 1 drives across to A1, already done
-    assert out.info["finished_task"] == [None, None]
+    assert out.info.finished_task == [None, None]
     assert env.n_finished == 2 and env.finished_by[a1] == 0
-    assert out.info["nav_time"][1] > 5.0
-    assert out.info["idle_time"][0] == pytest.approx(out.info["step_duration"])   # None robot waited
+    assert out.info.nav_time[1] > 5.0
+    assert out.info.idle_time[0] == pytest.approx(out.info.step_duration)   # None robot waited
 
 
 def test_all_none_lasts_the_minimum_step(env):
     env.reset(seed=0)
     out = env.step([env.n_tasks, env.n_tasks])
-    assert out.info["step_duration"] == pytest.approx(env.settings.min_step)
+    assert out.info.step_duration == pytest.approx(env.settings.min_step)
     assert out.reward_components["idle"] == pytest.approx([-0.22 * env.settings.min_step] * 2)
     assert not out.done and not out.truncated
 
@@ -104,7 +104,7 @@ def test_timeout_truncates_and_records_an_incomplete_episode(env):
         if out.done or out.truncated:
             break
     assert out.truncated and not out.done
-    record = out.info["episode"]
+    record = out.info.episode
     assert record.makespan == pytest.approx(env.scenario.episode_timeout)
     assert not record.complete and not record.logic_consistent
 
@@ -143,8 +143,8 @@ def test_noise_profile_changes_travel_times():
     a1 = ids(nominal, "A1")[0]
     nominal.reset(seed=3)
     noisy.reset(seed=3)
-    t_nominal = nominal.step([a1, nominal.n_tasks]).info["nav_time"][0]
-    t_noisy = noisy.step([a1, noisy.n_tasks]).info["nav_time"][0]
+    t_nominal = nominal.step([a1, nominal.n_tasks]).info.nav_time[0]
+    t_noisy = noisy.step([a1, noisy.n_tasks]).info.nav_time[0]
     assert t_nominal == pytest.approx(nominal.executor.table.nominal_time[0, 2 + a1])
     assert t_noisy > t_nominal   # slower robots and longer paths only
 
@@ -157,12 +157,12 @@ def test_service_time_extends_the_step_and_the_finish_time():
     env.step([a1, none])
     start = env.elapsed
     out = env.step([b1, none])
-    nav = out.info["nav_time"][0]
-    assert out.info["step_duration"] == pytest.approx(nav + 1.5)
+    nav = out.info.nav_time[0]
+    assert out.info.step_duration == pytest.approx(nav + 1.5)
     assert env.finish_time[b1] == pytest.approx(start + nav + 1.5)
-    assert out.info["idle_time"] == pytest.approx([0.0, nav + 1.5])
-    assert out.info["finish_order"] == [2, None]
-    entry = out.info["episode"].entries[-1]
+    assert out.info.idle_time == pytest.approx([0.0, nav + 1.5])
+    assert out.info.finish_order == [2, None]
+    entry = out.info.episode.entries[-1]
     assert entry.reach == pytest.approx(start + nav) and entry.service_end == pytest.approx(start + nav + 1.5)
 
 
@@ -203,7 +203,7 @@ def test_an_aborted_step_ends_the_episode_with_its_reason():
     assert not env.step([a1, a3]).truncated
     out = env.step([a1, a3])
     assert out.truncated and not out.done
-    assert out.info["abort_reason"] == "simulator lost (no /clock for 2.0 s)"
-    assert out.info["episode"].abort_reason == out.info["abort_reason"]
+    assert out.info.abort_reason == "simulator lost (no /clock for 2.0 s)"
+    assert out.info.episode.abort_reason == out.info.abort_reason
     with pytest.raises(RuntimeError):
         env.step([a1, a3])

@@ -6,7 +6,7 @@ from pathlib import Path
 import pytest
 
 from marl_mrta.env.factory import make_env
-from marl_mrta.evaluation.cli import main
+from marl_mrta.apps.evaluate import main
 
 ROOT = Path(__file__).resolve().parents[2]
 LAB_2R = str(ROOT / "scenarios" / "lab_2r.xml")

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from marl_mrta.env.factory import make_env
-from marl_mrta.tasks.config_reader import ConfigError
-from marl_mrta.tasks.reward import NavThresholds, RewardConfig, nav_reward, step_rewards
-from marl_mrta.tasks.rules import resolve_step
+from marl_mrta.common.config import ConfigError
+from marl_mrta.model.reward import NavThresholds, RewardConfig, nav_reward, step_rewards
+from marl_mrta.model.rules import resolve_step
 
 ROOT = Path(__file__).resolve().parents[2]
 THRESHOLDS = NavThresholds(t_min=4.0, t_avg=20.0, t_max=50.0)
@@ -122,10 +122,10 @@ def test_environment_step_reports_the_same_components():
     b1, a3 = env.scenario.task_index("B1"), env.scenario.task_index("A3")
     out = env.step([b1, a3])   # robot 0 goes to B1 before A1 is done: wrong order, finished
     reward = env.reward
-    nav = out.info["nav_time"]
+    nav = out.info.nav_time
     assert out.reward_components["logic"].tolist() == [-2.0, 5.0]
     assert out.reward_components["nav"] == pytest.approx([nav_reward(reward, True, t) for t in nav])
-    idle = out.info["idle_time"]
+    idle = out.info.idle_time
     assert idle[0] == pytest.approx(0.0) and idle[1] == pytest.approx(nav[0] - nav[1])
     assert out.reward_components["idle"] == pytest.approx([-0.22 * t for t in idle])
     expected = [0.6 * out.reward_components["logic"][i] + 0.35 * out.reward_components["nav"][i]

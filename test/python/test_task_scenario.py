@@ -11,8 +11,8 @@ import pytest
 from scipy import ndimage
 
 from marl_mrta.env.factory import make_env
-from marl_mrta.mapping.occupancy_map import FREE
-from marl_mrta.scenario import ScenarioError, load_scenario
+from marl_mrta.model.occupancy_map import FREE
+from marl_mrta.model.scenario import ScenarioError, load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 FIXTURES = ROOT / "test" / "data" / "scenarios"
@@ -60,7 +60,7 @@ MALFORMED = [
     ("non_numeric_field", "<task id=\"A1\">: attribute 'x' is not a number: 'one'"),
     ("missing_nav_time", "<scenario>: missing element <nav_time>"),
     ("bad_timeout", "<episode>: timeout must be positive, got -5"),
-    ("unknown_reward_key", "<logic>: unknown attribute 'wrong_finishd'"),
+    ("unknown_reward_key", "<reward>: logic.wrong_finishd: unknown key"),
     ("missing_map_file", "<map>: cannot load the map:"),
     ("not_xml", "file: not well-formed XML"),
 ]

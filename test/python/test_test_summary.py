@@ -12,7 +12,7 @@ PASSED = '<testsuite tests="2"><testcase name="a"/><testcase name="b"><skipped/>
 def test_passing_results_exit_0(tmp_path, capsys):
     (tmp_path / "ok.xml").write_text(PASSED)
     assert test_summary.main([str(tmp_path)]) == 0
-    assert capsys.readouterr().out.strip() == "tests: 1 passed, 0 failed, 1 skipped"
+    assert capsys.readouterr().out.strip().splitlines() == ["skipped: b", "tests: 1 passed, 0 failed, 1 skipped"]
 
 
 def test_an_empty_result_file_is_a_failure(tmp_path, capsys):
@@ -21,9 +21,24 @@ def test_an_empty_result_file_is_a_failure(tmp_path, capsys):
     (tmp_path / "ok.xml").write_text(PASSED)
     (tmp_path / "rosunit-died.xml").write_text("")
     assert test_summary.main([str(tmp_path)]) == 1
-    assert capsys.readouterr().out.strip() == "tests: 1 passed, 1 failed, 1 skipped"
+    assert capsys.readouterr().out.strip().splitlines()[-1] == "tests: 1 passed, 1 failed, 1 skipped"
 
 
 def test_a_failed_case_is_a_failure(tmp_path):
     (tmp_path / "bad.xml").write_text('<testsuite><testcase name="a"><failure message="x"/></testcase></testsuite>')
     assert test_summary.main([str(tmp_path)]) == 1
+
+
+def test_a_rostest_whose_node_skipped_every_case_counts_as_skipped(tmp_path, capsys):
+    # rostest's own file has one case per test node ("it ran and wrote results"), which passes
+    # even when the node skipped everything; the node's file carries the skip and its reason.
+    (tmp_path / "rosunit-nav_stock.xml").write_text(
+        '<testsuite><testcase name="test_tour"><skipped message="stock navigation not available"/></testcase></testsuite>')
+    (tmp_path / "rostest-test_rostest_nav_stock.xml").write_text(
+        '<testsuite><testcase classname="rostest.runner.RosTest" name="testnav_stock"/></testsuite>')
+    (tmp_path / "rosunit-nav_tour.xml").write_text('<testsuite><testcase name="test_tour"/></testsuite>')
+    (tmp_path / "rostest-test_rostest_nav_tour.xml").write_text(
+        '<testsuite><testcase classname="rostest.runner.RosTest" name="testnav_tour"/></testsuite>')
+    assert test_summary.main([str(tmp_path)]) == 0
+    assert capsys.readouterr().out.strip().splitlines() == [
+        "skipped: test_tour: stock navigation not available", "tests: 2 passed, 0 failed, 2 skipped"]

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from typing import List
 
-from .plan import Plan, SchedulingInstance, decode_task_lists, plan_from_run
+from marl_mrta.baselines.plan import Plan, SchedulingInstance, decode_task_lists, plan_from_run
 
 
 def solve_auction(instance: SchedulingInstance, objective: str = "minimax") -> Plan:

@@ -3,7 +3,7 @@
 Model. A state is (finished tasks, node of every robot). A move is any joint action of the
 environment (each robot: any task, including finished ones and tasks another robot also
 picks, or None; all-None is left out since it only burns the idle step). Its cost is the
-step duration of tasks/rules.py with nominal travel times; moves that would finish a task
+step duration of model/rules.py with nominal travel times; moves that would finish a task
 before one of its predecessors are excluded, since the goal is a complete, logic-consistent
 episode. The minimum makespan is the cheapest path to "all finished".
 
@@ -16,7 +16,7 @@ itself (every state with a lower f was expanded). Lower bounds used:
 - the open tasks' cheapest incoming legs and service times, shared over the robots.
 
 All joint actions of a state are evaluated at once with numpy: this is a batched copy of the
-rules of tasks/rules.py, kept identical by test_task_exact.py, which compares both on random
+rules of model/rules.py, kept identical by test_task_baselines.py, which compares both on random
 states and checks the solver against brute-force enumeration through rules.py.
 """
 from __future__ import annotations
@@ -28,13 +28,13 @@ from typing import Dict, List, Optional, Tuple
 
 import numpy as np
 
-from .plan import Plan, SchedulingInstance, simulate_joint_actions
+from marl_mrta.baselines.plan import Plan, SchedulingInstance, simulate_joint_actions
 
 _EPS = 1e-9
 
 
 class BatchedRules:
-    """tasks/rules.py for every joint action of one state at once (nominal times, no time limit)."""
+    """model/rules.py for every joint action of one state at once (nominal times, no time limit)."""
 
     def __init__(self, instance: SchedulingInstance):
         n_r, n_t = instance.n_robots, instance.n_tasks

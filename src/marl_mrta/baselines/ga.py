@@ -12,8 +12,8 @@ from __future__ import annotations
 import random
 from typing import Dict, List, Tuple
 
-from .plan import Plan, SchedulingInstance, decode_task_lists, plan_from_run
-from .settings import GaSettings
+from marl_mrta.baselines.plan import Plan, SchedulingInstance, decode_task_lists, plan_from_run
+from marl_mrta.baselines.settings import GaSettings
 
 Chromosome = Tuple[Tuple[int, ...], Tuple[int, ...]]   # (order, cuts)
 

@@ -2,7 +2,7 @@
 
 SchedulingInstance: a scenario reduced to nominal numbers (travel times between nodes, service
 times, precedence). Plan: per-robot ordered task lists plus the per-step joint actions that
-carry them out under the environment's step rules (tasks/rules.py), so a plan can be replayed
+carry them out under the environment's step rules (model/rules.py), so a plan can be replayed
 through the environment and scored by the same rules as every other method.
 """
 from __future__ import annotations
@@ -13,7 +13,7 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from ..tasks.rules import StepResolution, resolve_step
+from marl_mrta.model.rules import StepResolution, resolve_step
 
 INFINITE_TIME = math.inf
 
@@ -60,7 +60,7 @@ class Plan:
 
 
 class NominalRun:
-    """Steps an instance with nominal travel times through tasks/rules.py (no noise, no timeout)."""
+    """Steps an instance with nominal travel times through model/rules.py (no noise, no timeout)."""
 
     def __init__(self, instance: SchedulingInstance):
         self.instance = instance

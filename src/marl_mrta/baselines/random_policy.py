@@ -10,7 +10,7 @@ from __future__ import annotations
 import random
 from typing import List, Optional
 
-from ..env.api import StepOutput
+from marl_mrta.env.api import StepOutput
 
 
 class RandomPolicy:
@@ -33,6 +33,6 @@ class RandomPolicy:
         rng = self._rng
         if self.choice == "all":
             return [rng.randrange(self.n_tasks + 1) for _ in range(self.n_agents)]
-        finished = output.info["finished"]
+        finished = output.info.finished
         open_tasks = [j for j in range(self.n_tasks) if not finished[j]] or [self.n_tasks]
         return [rng.choice(open_tasks) for _ in range(self.n_agents)]

@@ -5,7 +5,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional, Union
 
-from ..tasks.config_reader import default_config_path, read_yaml
+from marl_mrta.common.config import read_yaml
+from marl_mrta.common.paths import default_config_path
 
 
 @dataclass(frozen=True)

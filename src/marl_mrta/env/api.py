@@ -6,15 +6,36 @@ this interface, so a policy trained against one executor runs unchanged against 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Dict, Optional, Protocol, Sequence
+from typing import Dict, List, Optional, Protocol, Sequence
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from ..scenario import Scenario
+from marl_mrta.model.scenario import Scenario
+from marl_mrta.model.schedule import EpisodeRecord
 
 #: Names of the reward components, in the order of SPEC's reward formula.
 REWARD_COMPONENTS = ("logic", "nav", "collision", "idle")
+
+
+@dataclass
+class StepInfo:
+    """What happened in the step just taken (after reset(): step 0, nothing done). Per-robot
+    lists are indexed by robot and empty after reset()."""
+
+    step: int                                   # decision steps taken in this episode
+    elapsed: float                              # s of episode time
+    finished: List[bool]                        # per task: finished by now
+    step_duration: float = 0.0                  # s
+    nav_time: List[float] = field(default_factory=list)         # s navigated
+    idle_time: List[float] = field(default_factory=list)        # s waited for the step to end
+    collisions: List[int] = field(default_factory=list)         # collision events
+    reached: List[bool] = field(default_factory=list)           # arrived at its goal
+    finished_task: List[Optional[int]] = field(default_factory=list)   # task this robot finished, or None
+    correct_order: List[bool] = field(default_factory=list)     # its attempt respected the precedence
+    failure: List[str] = field(default_factory=list)            # why its navigation failed ("" if not)
+    finish_order: List[Optional[int]] = field(default_factory=list)    # 1-based finishing position, or None
+    episode: Optional[EpisodeRecord] = None     # the schedule record, on the episode's last step
+    abort_reason: str = ""                      # why the episode was aborted ("" if it was not)
 
 
 @dataclass
@@ -28,7 +49,7 @@ class StepOutput:
     done: bool                           # episode over: all tasks reached
     truncated: bool                      # episode over: timeout (sim time) or aborted
     action_mask: np.ndarray              # (n_agents, n_actions) bool, True = allowed
-    info: Dict[str, Any] = field(default_factory=dict)  # metrics, schedule record, abort reason
+    info: StepInfo
 
 
 class TaskAllocationEnv(Protocol):
@@ -39,8 +60,21 @@ class TaskAllocationEnv(Protocol):
     n_actions: int   # number of tasks + 1; the last action index is None (stay idle)
     obs_dim: int
     state_dim: int
-    scenario: "Scenario"   # robots, tasks and their predecessors (marl_mrta.scenario)
+    scenario: Scenario     # robots, tasks and their predecessors (marl_mrta.model.scenario)
 
     def reset(self, seed: Optional[int] = None) -> StepOutput: ...
 
     def step(self, actions: Sequence[int]) -> StepOutput: ...
+
+
+class Policy(Protocol):
+    """A decision maker of whole episodes (baselines, plans, learned actors, the robots' own
+    actors): the one interface the episode loop (evaluation/loop.py) drives."""
+
+    name: str
+
+    def begin_episode(self, first: StepOutput, episode: Optional[int] = None) -> None:
+        """A new episode starts with `first` (what reset() returned); episode: its index in the run."""
+
+    def act(self, output: StepOutput) -> List[int]:
+        """One action per robot: a task index, or n_tasks for None."""

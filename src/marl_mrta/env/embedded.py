@@ -17,9 +17,9 @@ from typing import List, Optional, Sequence, Set, Tuple
 
 import numpy as np
 
-from ..tasks.config_reader import ConfigSection
-from ..tasks.travel import TravelTable
-from .executor import RobotOutcome, StepOutcome
+from marl_mrta.common.config import ConfigSection
+from marl_mrta.model.travel import TravelTable
+from marl_mrta.env.executor import RobotOutcome, StepOutcome
 
 
 @dataclass(frozen=True)
@@ -54,7 +54,7 @@ class NoiseProfile:
             collision_dt=section.number("collision_dt", default=0.2, minimum=1e-3),
         )
         if profile.speed_min > profile.speed_max or profile.pause_min > profile.pause_max:
-            from ..tasks.config_reader import ConfigError
+            from marl_mrta.common.config import ConfigError
             raise ConfigError(f"{section.source}: {section.path}: need speed_min <= speed_max and pause_min <= pause_max")
         return profile
 

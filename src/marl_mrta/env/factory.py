@@ -5,14 +5,14 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Optional, Union
 
-from ..scenario import Scenario, ScenarioError, load_scenario
-from ..tasks.config_reader import ConfigError
-from ..tasks.reward import RewardConfig
-from ..tasks.travel import TravelTable, nominal_travel_table
-from .embedded import EmbeddedExecutor
-from .executor import Executor
-from .settings import MASK_MODES, load_embedded_settings, load_task_settings
-from .task_env import TaskEnvironment
+from marl_mrta.model.scenario import Scenario, ScenarioError, load_scenario
+from marl_mrta.common.config import ConfigError
+from marl_mrta.model.reward import RewardConfig
+from marl_mrta.model.travel import TravelTable, nominal_travel_table
+from marl_mrta.env.embedded import EmbeddedExecutor
+from marl_mrta.env.executor import Executor
+from marl_mrta.env.settings import MASK_MODES, load_embedded_settings, load_task_settings
+from marl_mrta.env.task_env import TaskEnvironment
 
 #: Executors an environment can be built with here (the ROS executor lives with the ROS nodes).
 EXECUTORS = ("embedded",)

@@ -21,7 +21,7 @@ from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from ..scenario import Scenario
+from marl_mrta.model.scenario import Scenario
 
 
 class ObservationEncoder:

@@ -6,9 +6,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Dict, Optional, Union
 
-from ..tasks.config_reader import ConfigError, default_config_path, read_yaml
-from ..tasks.travel import TravelModel
-from .embedded import NoiseProfile
+from marl_mrta.common.config import ConfigError, read_yaml
+from marl_mrta.common.paths import default_config_path
+from marl_mrta.model.travel import TravelModel
+from marl_mrta.env.embedded import NoiseProfile
 
 MASK_MODES = ("none", "finished", "logic")
 

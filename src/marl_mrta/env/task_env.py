@@ -1,7 +1,7 @@
 """The decision process of Algorithm 1 over any executor: the one implementation of the task rules.
 
 One step: every robot gets a task index or None (index n_tasks); the executor drives the
-robots; tasks/rules.py decides finishes, order and timing; tasks/reward.py scores each robot;
+robots; model/rules.py decides finishes, order and timing; model/reward.py scores each robot;
 the episode ends when every task is finished (done) or at the timeout or an abort (truncated).
 """
 from __future__ import annotations
@@ -10,14 +10,14 @@ from typing import List, Optional, Sequence
 
 import numpy as np
 
-from ..scenario import Scenario
-from ..tasks.reward import RewardConfig, step_rewards
-from ..tasks.rules import resolve_step
-from ..tasks.schedule import EpisodeRecord, ScheduleEntry
-from .api import REWARD_COMPONENTS, StepOutput
-from .executor import Executor
-from .observation import ObservationEncoder
-from .settings import TaskSettings
+from marl_mrta.model.scenario import Scenario
+from marl_mrta.model.reward import RewardConfig, step_rewards
+from marl_mrta.model.rules import resolve_step
+from marl_mrta.model.schedule import EpisodeRecord, ScheduleEntry
+from marl_mrta.env.api import REWARD_COMPONENTS, StepInfo, StepOutput
+from marl_mrta.env.executor import Executor
+from marl_mrta.env.observation import ObservationEncoder
+from marl_mrta.env.settings import TaskSettings
 
 
 class TaskEnvironment:
@@ -71,7 +71,7 @@ class TaskEnvironment:
                                     idle_time=[0.0] * n, collisions=[0] * n)
         return self._output(poses, np.zeros(n, dtype=np.float32),
                             {name: np.zeros(n, dtype=np.float32) for name in REWARD_COMPONENTS}, False, False,
-                            {"step": 0, "elapsed": 0.0, "finished": list(self.finished)})
+                            StepInfo(step=0, elapsed=0.0, finished=list(self.finished)))
 
     def step(self, actions: Sequence[int]) -> StepOutput:
         if self.record is None or self.over:
@@ -137,22 +137,20 @@ class TaskEnvironment:
 
         done = self.n_finished == self.n_tasks
         truncated = not done and (outcome.aborted or self.elapsed >= self.scenario.episode_timeout - 1e-9)
-        info = {
-            "step": self.step_index, "elapsed": self.elapsed, "step_duration": resolution.duration,
-            "finished": list(self.finished), "nav_time": nav, "idle_time": idle, "collisions": collisions,
-            "reached": reached, "finished_task": [g if f else None for g, f in zip(goals, finished_now)],
-            "correct_order": correct, "failure": [r.failure for r in robots],
-            "finish_order": [order_of[g] if f else None for g, f in zip(goals, finished_now)],
-        }
+        info = StepInfo(
+            step=self.step_index, elapsed=self.elapsed, finished=list(self.finished),
+            step_duration=resolution.duration, nav_time=nav, idle_time=idle, collisions=collisions,
+            reached=reached, finished_task=[g if f else None for g, f in zip(goals, finished_now)],
+            correct_order=correct, failure=[r.failure for r in robots],
+            finish_order=[order_of[g] if f else None for g, f in zip(goals, finished_now)])
         if done or truncated:
             self.over = True
             record.makespan = self.elapsed
             record.complete = done
             record.truncated = truncated
             record.abort_reason = outcome.abort_reason if outcome.aborted else ""
-            info["episode"] = record
-            if outcome.aborted:
-                info["abort_reason"] = outcome.abort_reason
+            info.episode = record
+            info.abort_reason = record.abort_reason
         table = np.array([rewards.logic, rewards.nav, rewards.collision, rewards.idle, rewards.total],
                          dtype=np.float32)
         components = {"logic": table[0], "nav": table[1], "collision": table[2], "idle": table[3]}

@@ -1,7 +1,7 @@
 """The robots' side of decentralised execution, without ROS: what each robot is sent
 (ObservationRow), the board that collects their choices, and the policy the evaluation
 runner asks, which sends each robot only its own row and waits for every choice. The
-transport is given as callables (ros/decentralised.py: topics; tests: in-process actors).
+transport is given as callables (ros/actor_links.py: topics; tests: in-process actors).
 """
 from __future__ import annotations
 
@@ -11,9 +11,10 @@ from dataclasses import dataclass, field
 from typing import Callable, List, Optional, Sequence
 
 import numpy as np
+import torch
 
-from ..env.api import StepOutput
-from ..mappo.claims import ClaimRules
+from marl_mrta.env.api import StepOutput
+from marl_mrta.mappo.claims import ClaimRules
 
 #: Topics relative to each robot's namespace.
 OBSERVATION_TOPIC = "task_observation"
@@ -132,20 +133,18 @@ class DecentralisedPolicy:
 
     def _act_in_turn(self, output: StepOutput) -> List[int]:
         """Robot i is asked once robots 0..i-1 have answered, with the tasks they claimed."""
-        import torch
-        from ..mappo.claims import claimed_flags
         self.board.expect(self.episode, self.step)
-        actions: List[int] = []
-        for i in range(self.n_agents):
-            claimed = claimed_flags(torch.tensor([actions], dtype=torch.long), self.claim_rules.n_tasks)[0]
-            mask = self.claim_rules.mask(torch.as_tensor(np.asarray(output.action_mask[i], dtype=bool)), claimed)
+
+        def ask(robot: int, claimed: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
             row = ObservationRow(episode=self.episode, step=self.step, episode_start=self.step == 0,
-                                 obs=np.asarray(output.obs[i], dtype=np.float32),
-                                 action_mask=mask.numpy().astype(np.uint8), agent_index=i,
+                                 obs=np.asarray(output.obs[robot], dtype=np.float32),
+                                 action_mask=mask.numpy().astype(np.uint8), agent_index=robot,
                                  claimed=claimed.numpy().astype(np.uint8))
-            self.send(i, row)
-            answers = self.board.wait(self.timeout, self.resend_period, on_poll=lambda: self.send(i, row),
-                                      stop=self.stop, robots=[i])
-            actions.append(int(answers[i]))
+            self.send(robot, row)
+            answers = self.board.wait(self.timeout, self.resend_period, on_poll=lambda: self.send(robot, row),
+                                      stop=self.stop, robots=[robot])
+            return torch.tensor(answers[robot], dtype=torch.long)
+
+        actions = self.claim_rules.decide_in_turn(torch.as_tensor(np.asarray(output.action_mask, dtype=bool)), ask)
         self.step += 1
-        return actions
+        return [int(a) for a in actions]

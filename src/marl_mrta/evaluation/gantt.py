@@ -10,7 +10,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402  (the backend must be chosen first)
 from matplotlib.patches import Patch  # noqa: E402
 
-from ..tasks.schedule import EpisodeRecord  # noqa: E402
+from marl_mrta.model.schedule import EpisodeRecord  # noqa: E402
 
 _CATEGORY_COLOURS = ("#4c72b0", "#dd8452", "#55a868", "#8172b3", "#937860", "#da8bc3")
 

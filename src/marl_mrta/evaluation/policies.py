@@ -4,12 +4,13 @@ Every one offers begin_episode(first_output, episode) and act(output) -> one act
 """
 from __future__ import annotations
 
-from typing import Any, List, Optional
+from typing import List, Optional
 
 import numpy as np
 
-from ..baselines.plan import Plan
-from ..env.api import StepOutput
+from marl_mrta.baselines.plan import Plan
+from marl_mrta.env.api import StepOutput
+from marl_mrta.mappo.policy import ActorPolicy, PolicyFileError, load_policy
 
 
 class PlanPolicy:
@@ -32,7 +33,7 @@ class PlanPolicy:
         step, self._step = self._step, self._step + 1
         if step < len(self.plan.joint_actions):
             return [none if a is None else a for a in self.plan.joint_actions[step]]
-        finished = output.info["finished"]
+        finished = output.info.finished
         actions = []
         for tasks in self.plan.robot_tasks:
             open_tasks = [t for t in tasks if not finished[t]]
@@ -49,32 +50,34 @@ class PolicyLoadError(ValueError):
 
 
 class LearnedPolicy:
-    """A trained MAPPO actor (marl_mrta.mappo.policy.load_policy), greedy, one recurrent state per robot."""
+    """A trained MAPPO actor (mappo/policy.py's ActorPolicy) deciding for the whole team, one
+    recurrent state per robot, greedy unless deterministic is False."""
 
     name = "policy"
 
-    def __init__(self, path: str, n_agents: int, obs_dim: int, n_actions: int, seed: int = 0,
-                 deterministic: bool = True):
-        try:
-            from ..mappo.policy import load_policy
-        except ImportError as error:
-            raise PolicyLoadError(f"policy method needs marl_mrta.mappo.policy.load_policy, which cannot be "
-                                  f"imported here ({error})") from None
-        try:
-            self.actor: Any = load_policy(path, seed=seed)
-        except ValueError as error:       # PolicyFileError: already one line naming the file
-            raise PolicyLoadError(str(error)) from None
-        if getattr(self.actor, "obs_dim", obs_dim) != obs_dim or getattr(self.actor, "n_actions", n_actions) != n_actions:
-            raise PolicyLoadError(f"{path}: the actor expects observations of {self.actor.obs_dim} values and "
-                                  f"{self.actor.n_actions} actions; this scenario has {obs_dim} and {n_actions}")
+    def __init__(self, actor: ActorPolicy, n_agents: int, deterministic: bool = True):
+        self.actor = actor
         self.n_agents = n_agents
         self.deterministic = deterministic
         self._hidden = None
+
+    @classmethod
+    def from_file(cls, path: str, n_agents: int, obs_dim: int, n_actions: int, seed: int = 0,
+                  deterministic: bool = True) -> "LearnedPolicy":
+        """The actor of an actor file, checked against the environment's sizes."""
+        try:
+            actor = load_policy(path, seed=seed)
+        except PolicyFileError as error:
+            raise PolicyLoadError(str(error)) from None
+        if actor.obs_dim != obs_dim or actor.n_actions != n_actions:
+            raise PolicyLoadError(f"{path}: the actor expects observations of {actor.obs_dim} values and "
+                                  f"{actor.n_actions} actions; this scenario has {obs_dim} and {n_actions}")
+        return cls(actor, n_agents, deterministic)
 
     def begin_episode(self, first: StepOutput, episode: Optional[int] = None) -> None:
         self._hidden = self.actor.initial_hidden(self.n_agents)
 
     def act(self, output: StepOutput) -> List[int]:
         actions, self._hidden = self.actor.act_team(output.obs, output.action_mask, self._hidden,
-                                               deterministic=self.deterministic)
+                                                    deterministic=self.deterministic)
         return [int(a) for a in np.asarray(actions).reshape(-1)]

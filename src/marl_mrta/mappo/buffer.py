@@ -86,18 +86,11 @@ class RolloutBuffer:
         """Store one step of every environment (tensors shaped like one time slice)."""
         t = self.step
         assert t < self.rollout_length, "buffer full: call compute_returns() and reset()"
-        self.obs[t] = obs
-        self.state[t] = state
-        self.actions[t] = actions
-        self.action_mask[t] = action_mask
-        self.log_probs[t] = log_probs
-        self.values[t] = values
-        self.rewards[t] = rewards
-        self.episode_start[t] = episode_start
-        self.terminated[t] = terminated
-        self.truncated[t] = truncated
-        self.final_values[t] = final_values
-        self.actor_hidden[t] = actor_hidden
+        for name, value in (("obs", obs), ("state", state), ("actions", actions), ("action_mask", action_mask),
+                            ("log_probs", log_probs), ("values", values), ("rewards", rewards),
+                            ("episode_start", episode_start), ("terminated", terminated), ("truncated", truncated),
+                            ("final_values", final_values), ("actor_hidden", actor_hidden)):
+            getattr(self, name)[t] = value
         self.step += 1
 
     @property

@@ -15,7 +15,7 @@ claimed tasks, nothing else.
 """
 from __future__ import annotations
 
-from typing import Sequence
+from typing import Callable, Sequence
 
 import torch
 
@@ -72,3 +72,19 @@ class ClaimRules:
         pending = env_mask[..., :self.n_tasks] & ~claimed            # open and nobody on it yet
         blocked = (self.precedence & pending.unsqueeze(-2)).any(-1)   # some predecessor pending
         return mask & torch.cat([~blocked, torch.ones_like(blocked[..., :1])], dim=-1)
+
+    def decide_in_turn(self, env_mask: torch.Tensor,
+                       decide: Callable[[int, torch.Tensor, torch.Tensor], torch.Tensor]) -> torch.Tensor:
+        """The one in-turn decision: robots choose in index order, robot i offered the
+        environment's mask narrowed by the tasks robots 0..i-1 claimed in this step.
+
+        env_mask (..., N, n_tasks + 1) bool under the `finished` or `logic` mode; decide(i,
+        claimed (..., n_tasks) bool, mask (..., n_tasks + 1) bool) -> robot i's actions (...,)
+        long, for every leading index at once (environments). Returns the actions (..., N)."""
+        claimed = torch.zeros(*env_mask.shape[:-2], self.n_tasks, dtype=torch.bool)
+        actions = []
+        for robot in range(env_mask.shape[-2]):
+            action = decide(robot, claimed, self.mask(env_mask[..., robot, :], claimed))
+            actions.append(action)
+            claimed = claimed | claimed_flags(action.unsqueeze(-1), self.n_tasks)
+        return torch.stack(actions, dim=-1)

@@ -7,16 +7,15 @@ range, is a ConfigError whose message is one line naming the file, the key and t
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Dict, Optional, Tuple, Union
 
-from ..env.settings import MASK_MODES
-from ..tasks.config_reader import package_root
-from ..tasks.reward import REWARD_SCHEMA
-from ..yaml_file import YamlFileError, load_yaml_file
+from marl_mrta.common.config import ConfigError, ConfigSection, read_yaml
+from marl_mrta.common.paths import package_root
+from marl_mrta.env.settings import MASK_MODES
+from marl_mrta.model.reward import check_reward_overrides
 
 # How the robots of a step decide (claims.py). Here, so that reading settings needs no torch
 # (launch/train.launch derives the task managers' mask from a preset under roslaunch's Python).
@@ -26,10 +25,6 @@ DECISION_ORDERS = ("simultaneous", "sequential", "sequential_logic")
 def preset_dir() -> Path:
     """Directory of the shipped presets (`--preset tuned` means config/mappo/tuned.yaml)."""
     return package_root() / "config" / "mappo"
-
-
-class ConfigError(ValueError):
-    """A bad settings file or value; str(error) is the one-line message shown to the user."""
 
 
 def setting(default: Any, doc: str, low: Optional[float] = None, high: Optional[float] = None,
@@ -115,62 +110,23 @@ class MappoConfig:
         return max(1, min(chunks, round(self.batch_size / self.minibatch_size)))
 
 
-def _type_name(f: dataclasses.Field) -> str:
-    return f.type if isinstance(f.type, str) else getattr(f.type, "__name__", str(f.type))
-
-
-def _check_value(source: str, f: dataclasses.Field, value: Any) -> Any:
-    """The value converted to the field's type, or a ConfigError naming source and key."""
-    kind = _type_name(f)
-    where = f"{source}: {f.name}"
-    if kind.startswith("Dict"):
-        return _check_reward_overrides(where, value)
-    if kind == "bool":
-        if not isinstance(value, bool):
-            raise ConfigError(f"{where}: expected true or false, got {value!r}")
-        return value
-    if kind == "int":
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise ConfigError(f"{where}: expected an integer, got {value!r}")
-    elif kind == "float":
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise ConfigError(f"{where}: expected a number, got {value!r}")
-        value = float(value)
-        if not math.isfinite(value):
-            raise ConfigError(f"{where}: expected a finite number, got {value!r}")
-    elif kind == "str":
-        if not isinstance(value, str):
-            raise ConfigError(f"{where}: expected a string, got {value!r}")
+def _read_field(settings: ConfigSection, f: dataclasses.Field) -> Any:
+    """One setting read through the strict reader by the field's type, choices and range."""
+    kind = f.type if isinstance(f.type, str) else getattr(f.type, "__name__", str(f.type))
     meta = f.metadata
-    if meta["choices"] is not None and value not in meta["choices"]:
-        raise ConfigError(f"{where}: {value!r} is not one of {', '.join(meta['choices'])}")
     low, high = meta["low"], meta["high"]
-    if low is not None and (value < low or (meta["low_open"] and value == low)):
-        bound = f"> {low}" if meta["low_open"] else f">= {low}"
-        raise ConfigError(f"{where}: must be {bound}, got {value!r}")
-    if high is not None and value > high:
-        raise ConfigError(f"{where}: must be <= {high}, got {value!r}")
-    return value
-
-
-def _check_reward_overrides(where: str, value: Any) -> Dict[str, Dict[str, float]]:
-    """{section: {key: number}} with the sections and keys of config/reward.yaml."""
-    if not isinstance(value, dict):
-        raise ConfigError(f"{where}: expected a mapping of reward sections, got {value!r}")
-    checked: Dict[str, Dict[str, float]] = {}
-    for section, values in value.items():
-        if section not in REWARD_SCHEMA:
-            raise ConfigError(f"{where}: {section}: unknown reward section (known: {', '.join(REWARD_SCHEMA)})")
-        if not isinstance(values, dict):
-            raise ConfigError(f"{where}: {section}: expected a mapping of keys to numbers, got {values!r}")
-        checked[section] = {}
-        for key, number in values.items():
-            if key not in REWARD_SCHEMA[section]:
-                raise ConfigError(f"{where}: {section}.{key}: unknown key (known: {', '.join(REWARD_SCHEMA[section])})")
-            if isinstance(number, bool) or not isinstance(number, (int, float)) or not math.isfinite(number):
-                raise ConfigError(f"{where}: {section}.{key}: expected a finite number, got {number!r}")
-            checked[section][key] = float(number)
-    return checked
+    minimum, above = (None, low) if meta["low_open"] else (low, None)
+    if kind.startswith("Dict"):
+        return check_reward_overrides(settings.raw(f.name), settings.location(f.name))
+    if kind == "bool":
+        return settings.boolean(f.name)
+    if kind == "int":
+        return settings.integer(f.name, minimum=minimum, maximum=high)
+    if kind == "float":
+        return settings.number(f.name, minimum=minimum, maximum=high, above=above)
+    if meta["choices"] is not None:
+        return settings.choice(f.name, meta["choices"])
+    return settings.string(f.name)
 
 
 def _check_consistency(source: str, config: MappoConfig) -> None:
@@ -185,18 +141,12 @@ def _check_consistency(source: str, config: MappoConfig) -> None:
                           f"{config.rollout_length}")
 
 
-def config_from_dict(values: Dict[str, Any], source: str = "<settings>") -> MappoConfig:
+def config_from_dict(values: Any, source: str = "<settings>") -> MappoConfig:
     """A MappoConfig from a mapping of field names to values, checked key by key."""
-    if not isinstance(values, dict):
-        raise ConfigError(f"{source}: expected a mapping of setting names to values, got {type(values).__name__}")
+    settings = ConfigSection(values, source, noun="setting")
     fields = {f.name: f for f in dataclasses.fields(MappoConfig)}
-    checked = {}
-    for key, value in values.items():
-        if key not in fields:
-            close = difflib.get_close_matches(str(key), fields, n=1)
-            hint = f" (did you mean {close[0]}?)" if close else " (docs/mappo.md lists the settings)"
-            raise ConfigError(f"{source}: {key}: unknown setting{hint}")
-        checked[key] = _check_value(source, fields[key], value)
+    checked = {name: _read_field(settings, f) for name, f in fields.items() if settings.has(name)}
+    settings.check_all_used(known=list(fields))
     config = MappoConfig(**checked)
     _check_consistency(source, config)
     return config
@@ -204,15 +154,8 @@ def config_from_dict(values: Dict[str, Any], source: str = "<settings>") -> Mapp
 
 def load_config(path: Union[str, Path], overrides: Optional[Dict[str, Any]] = None) -> MappoConfig:
     """The settings in a YAML file (absent keys keep their defaults), then `overrides` on top."""
-    path = Path(path)
-    try:
-        values = load_yaml_file(path)
-    except YamlFileError as error:
-        raise ConfigError(str(error)) from None
-    values = {} if values is None else values
-    if not isinstance(values, dict):
-        raise ConfigError(f"{path}: expected a mapping of setting names to values, got {type(values).__name__}")
-    values = dict(values)
+    settings = read_yaml(path, noun="setting")
+    values = dict(settings.data)
     values.update(overrides or {})
     return config_from_dict(values, str(path))
 

@@ -21,7 +21,7 @@ from typing import Any, Callable, Dict, List, Optional, Sequence
 
 import numpy as np
 
-from ..env.api import REWARD_COMPONENTS, StepOutput, TaskAllocationEnv
+from marl_mrta.env.api import REWARD_COMPONENTS, StepOutput, TaskAllocationEnv
 
 
 def episode_seed(run_seed: int, env_index: int, episode: int) -> int:
@@ -68,19 +68,8 @@ class PoolStep:
                         final_state=self.final_state[rows])
 
 
-def _outcome(final: StepOutput) -> Dict[str, Any]:
-    """Episode figures from the schedule record the environment attaches to its last step."""
-    record = final.info["episode"]
-    return {
-        "makespan": float(record.makespan),
-        "collisions": float(sum(record.collisions)),
-        "logic_consistent": bool(record.logic_consistent),
-        "robot_tasks": [[record.task_ids[t] for t in tasks] for tasks in record.robot_task_lists()],
-    }
-
-
-class _EpisodeTally:
-    """Sums of one running episode."""
+class EpisodeTally:
+    """Sums of one running episode: add() every step's output, summary() at its end."""
 
     def __init__(self, n_agents: int):
         self.length = 0
@@ -93,6 +82,16 @@ class _EpisodeTally:
         for name, values in out.reward_components.items():
             self.components.setdefault(name, np.zeros_like(self.rewards))
             self.components[name] += values
+
+    def summary(self, env_index: int, final: StepOutput) -> EpisodeSummary:
+        """The ended episode, with the figures of the schedule record its last step carries."""
+        record = final.info.episode
+        return EpisodeSummary(env_index=env_index, length=self.length, reward_per_robot=self.rewards.tolist(),
+                              components={k: v.tolist() for k, v in self.components.items()},
+                              terminated=bool(final.done), makespan=float(record.makespan),
+                              collisions=float(sum(record.collisions)),
+                              logic_consistent=bool(record.logic_consistent),
+                              robot_tasks=[[record.task_ids[t] for t in tasks] for tasks in record.robot_task_lists()])
 
 
 class EnvPool:
@@ -115,7 +114,7 @@ class EnvPool:
         self.run_seed = run_seed
         self.episode_index = [0] * n_envs
         self.episode_actions: List[List[List[int]]] = [[] for _ in range(n_envs)]
-        self._tallies = [_EpisodeTally(self.n_agents) for _ in range(n_envs)]
+        self._tallies = [EpisodeTally(self.n_agents) for _ in range(n_envs)]
         self._latest: List[Optional[StepOutput]] = [None] * n_envs
 
     @property
@@ -127,7 +126,7 @@ class EnvPool:
     def _reset(self, i: int) -> StepOutput:
         out = self.envs[i].reset(seed=episode_seed(self.run_seed, i, self.episode_index[i]))
         self.episode_actions[i] = []
-        self._tallies[i] = _EpisodeTally(self.n_agents)
+        self._tallies[i] = EpisodeTally(self.n_agents)
         self._latest[i] = out
         return out
 
@@ -136,7 +135,7 @@ class EnvPool:
         """n_envs environments from one factory, stepped one after the other (embedded)."""
         return cls([make_env() for _ in range(n_envs)], run_seed)
 
-    def _map(self, function: Callable[[int], Any]) -> List[Any]:
+    def map(self, function: Callable[[int], Any]) -> List[Any]:
         """function(i) for every environment, in threads when parallel; results in order."""
         if self._threads is None:
             return [function(i) for i in range(self.n_envs)]
@@ -149,7 +148,7 @@ class EnvPool:
 
     def reset(self) -> PoolStep:
         """Start the first episode of every environment."""
-        self._map(self._reset)
+        self.map(self._reset)
         return self.current()
 
     def restart(self) -> PoolStep:
@@ -177,7 +176,7 @@ class EnvPool:
         final_state = np.zeros((self.n_envs, self.state_dim), np.float32)
         finished: List[EpisodeSummary] = []
         joints = [[int(a) for a in actions[i]] for i in range(self.n_envs)]
-        outputs = self._map(lambda i: self.envs[i].step(joints[i]))
+        outputs = self.map(lambda i: self.envs[i].step(joints[i]))
         for i, out in enumerate(outputs):
             summary = self._took(i, joints[i], out)
             rewards[i] = out.rewards
@@ -219,14 +218,7 @@ class EnvPool:
             self._latest[i] = out
             return None
         self.episode_index[i] += 1
-        return self._record(i, out)
-
-    def _record(self, i: int, final: StepOutput) -> EpisodeSummary:
-        tally = self._tallies[i]
-        return EpisodeSummary(env_index=i, length=tally.length,
-                             reward_per_robot=tally.rewards.tolist(),
-                             components={k: v.tolist() for k, v in tally.components.items()},
-                             terminated=bool(final.done), **_outcome(final))
+        return self._tallies[i].summary(i, out)
 
     def snapshot(self) -> Dict[str, Any]:
         """What restore() needs to rebuild the running episodes."""
@@ -251,39 +243,6 @@ class EnvPool:
                 self._latest[i] = out
         return self.current()
 
-    def evaluate(self, policy_act: Callable, seeds: Sequence[int]) -> List[EpisodeSummary]:
-        """Greedy episodes on these environments (seed k on environment k mod n_envs, in
-        parallel when the pool is); the running training episodes are lost: call restart()."""
-        def run(i: int) -> List[EpisodeSummary]:
-            return [greedy_episode(policy_act, self.envs[i], seed, env_index=i) for seed in seeds[i::self.n_envs]]
-
-        per_env = self._map(run)
-        return [per_env[k % self.n_envs][k // self.n_envs] for k in range(len(seeds))]
-
     def close(self) -> None:
         if self._threads is not None:
             self._threads.shutdown(wait=False)
-
-
-def greedy_episode(policy_act: Callable, env: TaskAllocationEnv, seed: int, env_index: int = -1) -> EpisodeSummary:
-    """One episode with a greedy policy; policy_act(obs, mask, hidden) -> (a, h), hidden None
-    at the start of the episode."""
-    out = env.reset(seed=int(seed))
-    tally = _EpisodeTally(env.n_agents)
-    hidden = None
-    while True:
-        actions, hidden = policy_act(out.obs, out.action_mask, hidden)
-        out = env.step([int(a) for a in actions])
-        tally.add(out)
-        if out.done or out.truncated:
-            break
-    return EpisodeSummary(env_index=env_index, length=tally.length, reward_per_robot=tally.rewards.tolist(),
-                          components={k: v.tolist() for k, v in tally.components.items()},
-                          terminated=bool(out.done), **_outcome(out))
-
-
-def evaluate_greedy(policy_act: Callable, make_env: Callable[[], TaskAllocationEnv],
-                    seeds: Sequence[int]) -> List[EpisodeSummary]:
-    """Run one episode per seed with a greedy policy on a new environment."""
-    env = make_env()
-    return [greedy_episode(policy_act, env, seed) for seed in seeds]

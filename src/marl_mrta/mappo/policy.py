@@ -13,8 +13,8 @@ from typing import Any, Dict, Optional, Sequence, Tuple, Union
 import numpy as np
 import torch
 
-from .claims import ClaimRules, actor_input_size, claimed_flags, is_sequential, with_claims
-from .networks import Actor, masked_logits, sample_actions
+from marl_mrta.mappo.claims import ClaimRules, actor_input_size, is_sequential, with_claims
+from marl_mrta.mappo.networks import Actor, masked_logits, sample_actions
 
 ACTOR_FORMAT = "marl_mrta.mappo.actor/1"
 
@@ -88,17 +88,18 @@ class ActorPolicy:
         with: at once, or one after another with the tasks claimed so far (mappo/claims.py)."""
         if not self.sequential:
             return self.act(obs, action_mask, hidden, deterministic)
-        n_tasks = self.n_actions - 1
-        actions = np.zeros(0, dtype=np.int64)
-        hidden_rows = []
-        for i in range(len(obs)):
-            claimed = claimed_flags(torch.as_tensor(actions).unsqueeze(0), n_tasks).numpy()
-            action, hidden_i = self.act(np.asarray(obs)[i:i + 1], None if action_mask is None else
-                                        np.asarray(action_mask)[i:i + 1], hidden[i:i + 1], deterministic,
-                                        agent_ids=[i], claimed=claimed)
-            actions = np.append(actions, action)
-            hidden_rows.append(hidden_i)
-        return actions, torch.cat(hidden_rows, 0)
+        obs = np.asarray(obs)
+        env_mask = torch.ones(len(obs), self.n_actions, dtype=torch.bool) if action_mask is None \
+            else torch.as_tensor(np.asarray(action_mask, dtype=bool))
+        hidden_rows = [hidden[i:i + 1] for i in range(len(obs))]
+
+        def decide(robot: int, claimed: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+            action, hidden_rows[robot] = self.act(obs[robot:robot + 1], mask.numpy()[None], hidden[robot:robot + 1],
+                                                  deterministic, agent_ids=[robot], claimed=claimed.numpy()[None])
+            return torch.as_tensor(action[0])
+
+        actions = self.claim_rules.decide_in_turn(env_mask, decide)
+        return actions.numpy().astype(np.int64), torch.cat(hidden_rows, 0)
 
     @torch.no_grad()
     def act(self, obs: np.ndarray, action_mask: Optional[np.ndarray], hidden: torch.Tensor,

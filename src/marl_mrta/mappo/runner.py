@@ -31,18 +31,22 @@ from typing import Any, Callable, Dict, List, Optional, Sequence
 import numpy as np
 import torch
 
-from ..env.api import TaskAllocationEnv
-from .buffer import RolloutBuffer
-from .claims import ClaimRules, claimed_flags, with_claims
-from .config import MappoConfig, config_from_dict, config_to_dict
-from .env_pool import EnvPool, EpisodeSummary, PoolStep, episode_seed, evaluate_greedy
-from .networks import log_prob_and_entropy, sample_actions
-from .policy import ActorPolicy, atomic_torch_save, save_actor
-from .trainer import MappoTrainer
+from marl_mrta.env.api import TaskAllocationEnv
+from marl_mrta.mappo.buffer import RolloutBuffer
+from marl_mrta.mappo.claims import ClaimRules, with_claims
+from marl_mrta.mappo.config import MappoConfig, config_from_dict, config_to_dict
+from marl_mrta.mappo.env_pool import EnvPool, EpisodeSummary, PoolStep, episode_seed
+from marl_mrta.mappo.networks import log_prob_and_entropy, sample_actions
+from marl_mrta.mappo.policy import ActorPolicy, atomic_torch_save, save_actor
+from marl_mrta.mappo.trainer import MappoTrainer
 
 CHECKPOINT_FORMAT = "marl_mrta.mappo.checkpoint/1"
 #: Seed stream of greedy evaluations, apart from every training episode's.
 EVAL_STREAM = 1_000_003
+
+
+#: Runs one greedy episode of the given policy per seed and summarises each (evaluation/training.py).
+GreedyEvaluation = Callable[[ActorPolicy, Sequence[int]], List[EpisodeSummary]]
 
 
 class RunError(RuntimeError):
@@ -108,14 +112,18 @@ class _Choice:
 
 class Runner:
     def __init__(self, config: MappoConfig, make_env: Optional[Callable[[], TaskAllocationEnv]], *,
-                 scenario: str, seed: int, out_dir: Path, log: Callable[[str], None] = print,
-                 target_makespan: Optional[float] = None, stop_at_target: bool = False,
-                 tensorboard: bool = True, plots: bool = True, pool: Optional[EnvPool] = None):
-        """target_makespan: greedy makespan counted as "policy found" (time_to_target);
-        stop_at_target ends the run there (benchmarks); pool: the environments (default
-        config.n_envs from make_env); make_env None: evaluate in the pool (module doc)."""
+                 evaluate: GreedyEvaluation, scenario: str, seed: int, out_dir: Path,
+                 log: Callable[[str], None] = print, target_makespan: Optional[float] = None,
+                 stop_at_target: bool = False, tensorboard: bool = True, plots: bool = True,
+                 pool: Optional[EnvPool] = None):
+        """evaluate: runs the greedy policy's episodes (evaluation/training.py: on an environment
+        of make_env, or in the pool); target_makespan: greedy makespan counted as "policy found"
+        (time_to_target); stop_at_target ends the run there (benchmarks); pool: the environments
+        (default config.n_envs from make_env); make_env None: the evaluation ran in the pool,
+        whose training episodes then restart (module doc)."""
         self.config = config
         self.make_env = make_env
+        self.run_greedy = evaluate
         self.scenario = scenario
         self.seed = seed
         self.out_dir = Path(out_dir)
@@ -182,7 +190,7 @@ class Runner:
         return data
 
     @classmethod
-    def resume(cls, out_dir: Path, make_env: Callable[[], TaskAllocationEnv], **kwargs) -> "Runner":
+    def resume(cls, out_dir: Path, make_env: Optional[Callable[[], TaskAllocationEnv]], **kwargs) -> "Runner":
         """The run stored in out_dir/checkpoint.pt, ready to continue with its next update."""
         data = cls.read_checkpoint(Path(out_dir) / "checkpoint.pt")
         config = config_from_dict(data["config"], f"{out_dir}/checkpoint.pt")
@@ -338,26 +346,25 @@ class Runner:
             return _Choice(obs, env_mask, actions.reshape(E, N), log_probs.reshape(E, N), out.hidden.reshape(E, N, -1),
                            state, trainer.values(state))
         # Robots in index order, each seeing the tasks claimed before it (mappo/claims.py).
-        n_tasks = env_mask.shape[-1] - 1
         identity = torch.eye(N)
         obs = torch.zeros(E, N, trainer.actor_obs_dim)
         mask = torch.zeros_like(env_mask)
-        actions = torch.zeros(E, N, dtype=torch.long)
         log_probs = torch.zeros(E, N)
         next_hidden = torch.zeros_like(hidden)
-        claimed = torch.zeros(E, n_tasks, dtype=torch.bool)
-        for robot in range(N):
+
+        def decide(robot: int, claimed: torch.Tensor, mask_i: torch.Tensor) -> torch.Tensor:
             obs_i = with_claims(env_obs[:, robot], claimed)
             if self.config.append_agent_id:
                 obs_i = torch.cat([obs_i, identity[robot].expand(E, N)], dim=-1)
-            mask_i = self.claim_rules.mask(env_mask[:, robot], claimed)
             out = trainer.actor(obs_i.unsqueeze(0), hidden[:, robot], episode_start.unsqueeze(0), mask_i.unsqueeze(0))
             logits = out.logits[0]
             action_i = sample_actions(logits, self.action_generator)
             log_prob_i, _ = log_prob_and_entropy(logits, action_i)
-            obs[:, robot], mask[:, robot], actions[:, robot] = obs_i, mask_i, action_i
+            obs[:, robot], mask[:, robot] = obs_i, mask_i
             log_probs[:, robot], next_hidden[:, robot] = log_prob_i, out.hidden
-            claimed |= claimed_flags(action_i.unsqueeze(1), n_tasks)
+            return action_i
+
+        actions = self.claim_rules.decide_in_turn(env_mask, decide)
         return _Choice(obs, mask, actions, log_probs, next_hidden, state, trainer.values(state))
 
     @torch.no_grad()
@@ -395,16 +402,8 @@ class Runner:
     def evaluate(self) -> Dict[str, float]:
         """Greedy policy on fixed evaluation seeds (separate env, no training RNG used)."""
         started = time.perf_counter()
-        policy = self.greedy_policy()
-
-        def act(obs, mask, hidden):
-            hidden = policy.initial_hidden(self.n_agents) if hidden is None else hidden
-            return policy.act_team(obs, mask, hidden, deterministic=True)
-
-        if self.make_env is not None:
-            records = evaluate_greedy(act, self.make_env, self.eval_seeds)
-        else:
-            records = self.pool.evaluate(act, self.eval_seeds)
+        records = self.run_greedy(self.greedy_policy(), self.eval_seeds)
+        if self.make_env is None:
             self.current = self.pool.restart()
             self.hidden.zero_()
             self.episode_start.fill_(True)
@@ -522,5 +521,5 @@ class Runner:
             self._writer.close()
             self._writer = None
         if self.want_plots:
-            from .plots import write_plots
+            from marl_mrta.mappo.plots import write_plots
             write_plots(self.history, self.out_dir / "plots", self.n_agents, self.target_makespan)

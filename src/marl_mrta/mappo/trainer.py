@@ -13,11 +13,11 @@ from typing import Dict
 import torch
 from torch import nn
 
-from .buffer import Minibatch, RolloutBuffer
-from .claims import actor_input_size, is_sequential
-from .config import MappoConfig
-from .networks import Actor, Critic, actor_input, log_prob_and_entropy
-from .value_norm import ValueNorm
+from marl_mrta.mappo.buffer import Minibatch, RolloutBuffer
+from marl_mrta.mappo.claims import actor_input_size, is_sequential
+from marl_mrta.mappo.config import MappoConfig
+from marl_mrta.mappo.networks import Actor, Critic, actor_input, log_prob_and_entropy
+from marl_mrta.mappo.value_norm import ValueNorm
 
 
 @dataclass

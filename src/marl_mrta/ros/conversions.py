@@ -1,47 +1,102 @@
 """env.api.StepOutput <-> marl_mrta/TaskEnvOutput, the one place the wire format is defined.
 
-`info` travels as JSON (`info_json`); its episode record (`info["episode"]`, an EpisodeRecord)
-is rebuilt on the receiving side, so a client sees what the environment returned.
+The step information and its episode record travel as typed messages (StepInfo, EpisodeRecord,
+ScheduleEntry); "none" is -1 for indices and a flag beside a float, so a client rebuilds
+exactly what the environment returned.
 """
 from __future__ import annotations
 
-import dataclasses
-import json
-import math
-from typing import Any, Dict
+from typing import List, Optional, Sequence
 
 import numpy as np
 
+from marl_mrta.msg import EpisodeRecord as EpisodeRecordMsg
+from marl_mrta.msg import ScheduleEntry as ScheduleEntryMsg
+from marl_mrta.msg import StepInfo as StepInfoMsg
 from marl_mrta.msg import TaskEnvOutput
 
-from ..env.api import REWARD_COMPONENTS, StepOutput
-from ..tasks.schedule import EpisodeRecord, ScheduleEntry
+from marl_mrta.env.api import REWARD_COMPONENTS, StepInfo, StepOutput
+from marl_mrta.model.schedule import EpisodeRecord, ScheduleEntry
+
+NONE_INDEX = -1
 
 
-def _jsonable(value: Any) -> Any:
-    if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        return {f.name: _jsonable(getattr(value, f.name)) for f in dataclasses.fields(value)}
-    if isinstance(value, dict):
-        return {str(k): _jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_jsonable(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return _jsonable(value.tolist())
-    if isinstance(value, (np.floating, np.integer, np.bool_)):
-        return _jsonable(value.item())
-    if isinstance(value, float) and not math.isfinite(value):
-        return str(value)
-    if isinstance(value, (str, int, float, bool)) or value is None:
-        return value
-    return str(value)
+def _indices(values: Sequence[Optional[int]]) -> List[int]:
+    return [NONE_INDEX if v is None else int(v) for v in values]
 
 
-def record_from_dict(data: Dict[str, Any]) -> EpisodeRecord:
-    """The EpisodeRecord whose fields `data` holds (as _jsonable wrote them)."""
-    names = {f.name for f in dataclasses.fields(EpisodeRecord)}
-    fields = {k: v for k, v in data.items() if k in names}
-    fields["entries"] = [ScheduleEntry(**entry) for entry in data.get("entries", [])]
-    return EpisodeRecord(**fields)
+def _optional_indices(values: Sequence[int]) -> List[Optional[int]]:
+    return [None if v == NONE_INDEX else int(v) for v in values]
+
+
+def _entry_to_message(entry: ScheduleEntry) -> ScheduleEntryMsg:
+    return ScheduleEntryMsg(
+        robot=entry.robot, task=entry.task, step=entry.step, start=entry.start, reached=entry.reach is not None,
+        reach=0.0 if entry.reach is None else entry.reach, end=entry.end, finished=entry.finished,
+        order=NONE_INDEX if entry.order is None else entry.order, logic_correct=entry.logic_correct,
+        has_service_end=entry.service_end is not None,
+        service_end=0.0 if entry.service_end is None else entry.service_end)
+
+
+def _entry_from_message(msg: ScheduleEntryMsg) -> ScheduleEntry:
+    return ScheduleEntry(robot=int(msg.robot), task=int(msg.task), step=int(msg.step), start=msg.start,
+                         reach=msg.reach if msg.reached else None, end=msg.end, finished=bool(msg.finished),
+                         order=None if msg.order == NONE_INDEX else int(msg.order),
+                         logic_correct=bool(msg.logic_correct),
+                         service_end=msg.service_end if msg.has_service_end else None)
+
+
+def record_to_message(record: EpisodeRecord) -> EpisodeRecordMsg:
+    task_finished = [t is not None for t in record.finish_time]
+    return EpisodeRecordMsg(
+        scenario=record.scenario, robot_ids=list(record.robot_ids), task_ids=list(record.task_ids),
+        makespan=record.makespan, complete=record.complete, truncated=record.truncated,
+        abort_reason=record.abort_reason, step_durations=list(record.step_durations),
+        joint_actions=[a for step in record.joint_actions for a in _indices(step)],
+        entries=[_entry_to_message(e) for e in record.entries], task_finished=task_finished,
+        finish_time=[0.0 if t is None else t for t in record.finish_time],
+        finished_by=_indices(record.finished_by),
+        task_logic_correct=[bool(c) for c in record.task_logic_correct],
+        nav_time=list(record.nav_time), idle_time=list(record.idle_time), collisions=list(record.collisions))
+
+
+def record_from_message(msg: EpisodeRecordMsg) -> EpisodeRecord:
+    n_robots = len(msg.robot_ids)
+    flat = list(msg.joint_actions)
+    steps = [_optional_indices(flat[k:k + n_robots]) for k in range(0, len(flat), n_robots)] if n_robots else []
+    done = list(msg.task_finished)
+    return EpisodeRecord(
+        scenario=msg.scenario, robot_ids=list(msg.robot_ids), task_ids=list(msg.task_ids), makespan=msg.makespan,
+        complete=bool(msg.complete), truncated=bool(msg.truncated), abort_reason=msg.abort_reason,
+        step_durations=list(msg.step_durations), joint_actions=steps,
+        entries=[_entry_from_message(e) for e in msg.entries],
+        finish_time=[t if d else None for t, d in zip(msg.finish_time, done)],
+        finished_by=[int(r) if d else None for r, d in zip(msg.finished_by, done)],
+        task_logic_correct=[bool(c) if d else None for c, d in zip(msg.task_logic_correct, done)],
+        nav_time=list(msg.nav_time), idle_time=list(msg.idle_time), collisions=[int(c) for c in msg.collisions])
+
+
+def info_to_message(info: StepInfo) -> StepInfoMsg:
+    msg = StepInfoMsg(
+        step=info.step, elapsed=info.elapsed, finished=[bool(f) for f in info.finished],
+        step_duration=info.step_duration, nav_time=list(info.nav_time), idle_time=list(info.idle_time),
+        collisions=[int(c) for c in info.collisions], reached=[bool(r) for r in info.reached],
+        finished_task=_indices(info.finished_task), correct_order=[bool(c) for c in info.correct_order],
+        failure=list(info.failure), finish_order=_indices(info.finish_order),
+        has_episode=info.episode is not None, abort_reason=info.abort_reason)
+    if info.episode is not None:
+        msg.episode = record_to_message(info.episode)
+    return msg
+
+
+def info_from_message(msg: StepInfoMsg) -> StepInfo:
+    return StepInfo(
+        step=int(msg.step), elapsed=msg.elapsed, finished=[bool(f) for f in msg.finished],
+        step_duration=msg.step_duration, nav_time=list(msg.nav_time), idle_time=list(msg.idle_time),
+        collisions=[int(c) for c in msg.collisions], reached=[bool(r) for r in msg.reached],
+        finished_task=_optional_indices(msg.finished_task), correct_order=[bool(c) for c in msg.correct_order],
+        failure=list(msg.failure), finish_order=_optional_indices(msg.finish_order),
+        episode=record_from_message(msg.episode) if msg.has_episode else None, abort_reason=msg.abort_reason)
 
 
 def to_message(output: StepOutput) -> TaskEnvOutput:
@@ -54,7 +109,7 @@ def to_message(output: StepOutput) -> TaskEnvOutput:
         setattr(msg, "reward_" + name, output.reward_components[name].astype(np.float32).tolist())
     msg.done, msg.truncated = bool(output.done), bool(output.truncated)
     msg.action_mask = output.action_mask.astype(np.uint8).ravel().tobytes()
-    msg.info_json = json.dumps(_jsonable(output.info))
+    msg.info = info_to_message(output.info)
     return msg
 
 
@@ -62,13 +117,10 @@ def from_message(msg: TaskEnvOutput) -> StepOutput:
     n, d, a = msg.n_agents, msg.obs_dim, msg.n_actions
     # rospy gives uint8[] as bytes (a list of ints when the message was built by hand).
     mask = np.frombuffer(bytes(msg.action_mask), dtype=np.uint8).reshape(n, a).astype(bool)
-    info = json.loads(msg.info_json) if msg.info_json else {}
-    if isinstance(info.get("episode"), dict):
-        info["episode"] = record_from_dict(info["episode"])
     return StepOutput(
         obs=np.asarray(msg.obs, dtype=np.float32).reshape(n, d),
         state=np.asarray(msg.state, dtype=np.float32),
         rewards=np.asarray(msg.rewards, dtype=np.float32),
         reward_components={name: np.asarray(getattr(msg, "reward_" + name), dtype=np.float32)
                            for name in REWARD_COMPONENTS},
-        done=bool(msg.done), truncated=bool(msg.truncated), action_mask=mask, info=info)
+        done=bool(msg.done), truncated=bool(msg.truncated), action_mask=mask, info=info_from_message(msg.info))

@@ -13,11 +13,11 @@ import rospy
 
 from marl_mrta.srv import TaskReset, TaskStep
 
-from ..env.api import StepOutput
-from ..env.settings import TaskSettings
-from ..scenario import Scenario, load_scenario
-from .conversions import from_message
-from .sim_clock import SimulatorLost
+from marl_mrta.env.api import StepOutput
+from marl_mrta.env.settings import TaskSettings
+from marl_mrta.model.scenario import Scenario, load_scenario
+from marl_mrta.ros.conversions import from_message
+from marl_mrta.ros.sim_clock import SimulatorLost
 
 DEFAULT_MANAGER = "/rl_task_allocation_manager"
 

@@ -28,12 +28,12 @@ import rospy
 from actionlib_msgs.msg import GoalStatus
 from std_srvs.srv import Empty
 
-from ..env.executor import RobotOutcome, StepOutcome
-from ..scenario import Scenario
-from .manager_settings import RosExecutorSettings
-from .move_base_link import MoveBaseLink
-from .sim_clock import SimClock, SimulatorLost, call_bounded, wait_wall
-from .sim_link import SimulatorLink
+from marl_mrta.env.executor import RobotOutcome, StepOutcome
+from marl_mrta.model.scenario import Scenario
+from marl_mrta.ros.manager_settings import RosExecutorSettings
+from marl_mrta.ros.move_base_link import MoveBaseLink
+from marl_mrta.ros.sim_clock import SimClock, SimulatorLost, call_bounded, wait_wall
+from marl_mrta.ros.sim_link import SimulatorLink
 
 
 def _elapsed(since: float, until: float) -> float:

@@ -8,8 +8,8 @@ from __future__ import annotations
 
 from typing import Union
 
-from ..scenario import ScenarioError, load_scenario
-from ..tasks.config_reader import package_root
+from marl_mrta.model.scenario import ScenarioError, load_scenario
+from marl_mrta.common.paths import package_root
 
 
 def scenario_value(path: str, key: str) -> Union[int, str]:

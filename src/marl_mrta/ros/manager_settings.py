@@ -8,10 +8,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Dict, Optional, Set
+from typing import Any, Dict, Optional
 
-from ..env.settings import MASK_MODES
-from ..tasks.config_reader import ConfigError, default_config_path, read_yaml
+from marl_mrta.env.settings import MASK_MODES
+from marl_mrta.common.config import ConfigError, node_parameters, read_yaml
+from marl_mrta.common.paths import default_config_path
 
 #: Private parameters the node writes itself for its clients; never read as settings.
 OUTPUT_PARAMETERS = ("env",)
@@ -40,45 +41,6 @@ class ManagerSettings:
     executor: RosExecutorSettings
 
 
-class _Params:
-    """Typed reads of one parameter namespace, remembering which names were read."""
-
-    def __init__(self, values: Dict[str, Any], namespace: str):
-        self.values = values
-        self.namespace = namespace
-        self.used: Set[str] = set()
-
-    def fail(self, key: str, problem: str) -> ConfigError:
-        return ConfigError(f"{self.namespace}/{key}: {problem}")
-
-    def string(self, key: str, allow_empty: bool = True) -> str:
-        self.used.add(key)
-        value = self.values.get(key)
-        if not isinstance(value, str) or (not allow_empty and not value):
-            raise self.fail(key, f"expected a {'' if allow_empty else 'non-empty '}string, got {value!r}")
-        return value
-
-    def integer(self, key: str, minimum: int) -> int:
-        self.used.add(key)
-        value = self.values.get(key)
-        if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
-            raise self.fail(key, f"expected an integer >= {minimum}, got {value!r}")
-        return value
-
-    def number(self, key: str, minimum: float, strictly: bool = False) -> float:
-        self.used.add(key)
-        value = self.values.get(key)
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or value < minimum \
-                or (strictly and value == minimum):
-            raise self.fail(key, f"expected a number {'>' if strictly else '>='} {minimum:g}, got {value!r}")
-        return float(value)
-
-    def check_all_used(self) -> None:
-        for key in self.values:
-            if key not in self.used:
-                raise self.fail(key, f"unknown parameter (known: {', '.join(sorted(self.used))})")
-
-
 def read_manager_settings(params: Dict[str, Any], namespace: str,
                           defaults_file: Optional[Path] = None) -> ManagerSettings:
     """`params`: the node's private parameters; `namespace`: its name, e.g. /rl_task_allocation_manager."""
@@ -87,7 +49,7 @@ def read_manager_settings(params: Dict[str, Any], namespace: str,
                           f"(roslaunch marl_mrta task_manager.launch scenario:=...)")
     values = dict(read_yaml(defaults_file or default_config_path("task_manager.yaml")).data)
     values.update({k: v for k, v in params.items() if k not in OUTPUT_PARAMETERS})
-    p = _Params(values, namespace)
+    p = node_parameters(values, namespace)
     scenario = p.string("scenario", allow_empty=False)
     mask = p.string("mask")
     if mask and mask not in MASK_MODES:
@@ -96,13 +58,13 @@ def read_manager_settings(params: Dict[str, Any], namespace: str,
     if prefix and (not prefix.endswith("/") or prefix.startswith("/")):
         raise p.fail("robot_prefix", f"{prefix!r} must be empty or a relative namespace ending in '/' (arena_1/)")
     executor = RosExecutorSettings(
-        robot_prefix=prefix, arena=p.integer("arena", 0),
-        simulator_lost_after=p.number("simulator_lost_after", 0.0, strictly=True),
-        graph_wait=p.number("graph_wait", 0.0, strictly=True),
-        align_period=p.number("align_period", 0.0),
+        robot_prefix=prefix, arena=p.integer("arena", minimum=0),
+        simulator_lost_after=p.number("simulator_lost_after", above=0.0),
+        graph_wait=p.number("graph_wait", above=0.0),
+        align_period=p.number("align_period", minimum=0.0),
         map_frame=p.string("map_frame", allow_empty=False))
     settings = ManagerSettings(scenario=scenario, mask=mask or None, task_config=p.string("task_config") or None,
                                reward_config=p.string("reward_config") or None,
-                               marker_period=p.number("marker_period", 0.0), executor=executor)
-    p.check_all_used()
+                               marker_period=p.number("marker_period", minimum=0.0), executor=executor)
+    p.check_all_used(known=[k for k in values if k in p.used])
     return settings

@@ -7,7 +7,7 @@ from geometry_msgs.msg import Point
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
-from ..scenario import Scenario
+from marl_mrta.model.scenario import Scenario
 
 PENDING = ColorRGBA(0.55, 0.55, 0.55, 0.9)
 ASSIGNED = ColorRGBA(1.0, 0.6, 0.0, 0.95)

@@ -19,7 +19,7 @@ from std_srvs.srv import SetBool
 from marl_mrta.msg import CollisionEvent, LockstepAck
 from marl_mrta.srv import ResetSim, ResetSimRequest, RunSim, StepSim
 
-from .sim_clock import SimulatorLost, call_bounded, wait_wall
+from marl_mrta.ros.sim_clock import SimulatorLost, call_bounded, wait_wall
 
 SIMULATOR = "/simulator"
 

@@ -18,16 +18,16 @@ from visualization_msgs.msg import MarkerArray
 from marl_mrta.msg import IdleTime, TaskAssignment, TaskReached
 from marl_mrta.srv import TaskReset, TaskResetResponse, TaskStep, TaskStepResponse
 
-from ..env.api import StepOutput
-from ..env.factory import make_env
-from ..env.settings import load_task_settings
-from ..scenario import load_scenario
-from .conversions import to_message
-from .executor import RosExecutor
-from .manager_settings import ManagerSettings
-from .markers import task_markers
-from .move_base_link import yaw_to_quaternion
-from .sim_clock import SimulatorLost
+from marl_mrta.env.api import StepOutput
+from marl_mrta.env.factory import make_env
+from marl_mrta.env.settings import load_task_settings
+from marl_mrta.model.scenario import load_scenario
+from marl_mrta.ros.conversions import to_message
+from marl_mrta.ros.executor import RosExecutor
+from marl_mrta.ros.manager_settings import ManagerSettings
+from marl_mrta.ros.markers import task_markers
+from marl_mrta.ros.move_base_link import yaw_to_quaternion
+from marl_mrta.ros.sim_clock import SimulatorLost
 
 
 class TaskManagerNode:
@@ -118,10 +118,10 @@ class TaskManagerNode:
 
     @staticmethod
     def _log_end(output: StepOutput) -> None:
-        record = output.info["episode"]
-        if "abort_reason" in output.info:
+        record = output.info.episode
+        if output.info.abort_reason:
             rospy.logerr("episode aborted at %.1f s after %d steps: %s", record.makespan,
-                         record.decision_steps, output.info["abort_reason"])
+                         record.decision_steps, output.info.abort_reason)
         else:
             rospy.loginfo("episode %s: makespan %.2f s, %d steps, %s", "complete" if output.done else "timed out",
                           record.makespan, record.decision_steps,
@@ -150,13 +150,13 @@ class TaskManagerNode:
     def _publish_results(self, output: StepOutput) -> None:
         now = rospy.Time.now()
         info = output.info
-        for i, (task, order) in enumerate(zip(info["finished_task"], info["finish_order"])):
+        for i, (task, order) in enumerate(zip(info.finished_task, info.finish_order)):
             if task is None:
                 continue
             self.pub_reached.publish(TaskReached(stamp=now, robot=self.robot_ns[i], task=self.scenario.tasks[task].id,
-                                                 order=int(order), logic_correct=bool(info["correct_order"][i])))
-        self.pub_idle.publish(IdleTime(stamp=now, step=int(info["step"]), robots=self.robot_ns,
-                                       idle_time=[float(t) for t in info["idle_time"]]))
+                                                 order=int(order), logic_correct=bool(info.correct_order[i])))
+        self.pub_idle.publish(IdleTime(stamp=now, step=int(info.step), robots=self.robot_ns,
+                                       idle_time=[float(t) for t in info.idle_time]))
         self._assigned = [None] * self.scenario.n_robots
         self._publish_markers()
 

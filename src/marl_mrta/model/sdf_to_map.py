@@ -24,7 +24,8 @@ from typing import List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
-from marl_mrta.mapping.occupancy_map import FREE, OCCUPIED, MapOrigin, OccupancyMap
+from marl_mrta.common.yaml_file import read_input_file
+from marl_mrta.model.occupancy_map import FREE, OCCUPIED, MapOrigin, OccupancyMap
 
 # Solids must overlap a cell by more than this (metres) to occupy it: absorbs rounding in
 # composed poses (cos(pi/2) = 6e-17) so borders that coincide with cell borders stay exact.
@@ -115,10 +116,7 @@ class GridSpec:
 def read_solids(sdf_path: Union[str, Path]) -> List[Solid]:
     """All collision solids of an SDF file, in world coordinates."""
     sdf_path = Path(sdf_path)
-    try:
-        text = sdf_path.read_bytes()
-    except OSError as err:
-        raise SdfError(f"{sdf_path}: file: cannot read ({err.strerror})") from None
+    text = read_input_file(sdf_path, SdfError, "file")
     try:
         root = ET.fromstring(text)
     except ET.ParseError as err:

@@ -8,39 +8,22 @@ one line on stderr and exit 2.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import sys
-from typing import Any, Dict
-from functools import partial
 from pathlib import Path
-from typing import Callable, List, Optional
+from typing import Any, Callable, Dict, List, Optional
 
-from ..env.api import TaskAllocationEnv
-from ..env.factory import make_env
-from ..scenario import ScenarioError, load_scenario
-from ..tasks.config_reader import ConfigError as EnvConfigError
-from ..tasks.config_reader import package_root
-from .config import ConfigError, MappoConfig, config_from_dict, load_config, resolve_preset
-from .runner import RunError, Runner
+from marl_mrta.common.config import ConfigError
+from marl_mrta.common.paths import package_root
+from marl_mrta.evaluation.training import in_pool, on_new_env
+from marl_mrta.mappo.config import MappoConfig, config_from_dict, load_config, resolve_preset
+from marl_mrta.mappo.runner import RunError, Runner
+from marl_mrta.mappo.training_env import embedded_factory
+from marl_mrta.model.scenario import ScenarioError
 
 #: Backends an environment can be built with by this command.
 BACKENDS = ("embedded", "ros")
 #: Errors of user input; each prints as one line.
-INPUT_ERRORS = (ScenarioError, EnvConfigError, ConfigError, RunError)
-
-
-def env_factory(scenario: str, config: MappoConfig, backend: str = "embedded") -> Callable[[], TaskAllocationEnv]:
-    """A function building one environment of the run (the scenario is parsed once)."""
-    loaded = load_scenario(scenario)
-    if config.reward_overrides:
-        # The scenario's own <reward> overrides first, the training settings' on top.
-        merged = {section: dict(values) for section, values in loaded.reward_overrides.items()}
-        for section, values in config.reward_overrides.items():
-            merged.setdefault(section, {}).update(values)
-        loaded = dataclasses.replace(loaded, reward_overrides=merged)
-    build = partial(make_env, loaded, backend, profile=config.noise_profile, mask=config.action_mask)
-    build()   # fail fast on bad settings
-    return build
+INPUT_ERRORS = (ScenarioError, ConfigError, RunError)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -97,40 +80,15 @@ def _settings(args: argparse.Namespace, preset: str) -> MappoConfig:
     return load_config(resolve_preset(preset), overrides)
 
 
-def ros_pool(config: MappoConfig, seed: int, scenario: Optional[str], manager_wait: float):
-    """The running task managers of n_envs arenas as a parallel EnvPool, each scored with the
-    training reward; checks that they run the scenario and mask the settings expect."""
-    import rosgraph
-    from ..ros.env_client import ManagerUnavailable, RosTaskEnvClient, arena_managers
-    from .env_pool import EnvPool
-    from .training_reward import TrainingRewardEnv, training_reward
-
-    if not rosgraph.is_master_online():
-        raise ManagerUnavailable(f"no ROS master at {rosgraph.get_master_uri()}: start the arenas first "
-                                 f"(roslaunch marl_mrta tasks.launch arenas:={config.n_envs} mask:={config.action_mask}, "
-                                 f"or train with roslaunch marl_mrta train.launch backend:=ros)")
-    clients = [RosTaskEnvClient(name, wait_wall=manager_wait) for name in arena_managers(config.n_envs)]
-    first = clients[0]
-    for client in clients:
-        source = client.scenario_path
-        if scenario is not None and source != Path(scenario).resolve():
-            raise RunError(f"{client.manager}: runs scenario {source}, the training is for {scenario}")
-        if client.settings.mask != config.action_mask:
-            raise RunError(f"{client.manager}: mask: the manager masks {client.settings.mask!r}, the settings "
-                           f"train with action_mask {config.action_mask!r} (start it with mask:={config.action_mask})")
-        if source != first.scenario_path:
-            raise RunError(f"{client.manager}: runs scenario {source}, {first.manager} runs {first.scenario_path}")
-    reward = training_reward(first.scenario, config.reward_overrides)
-    envs = [TrainingRewardEnv(client, reward, client.n_tasks) for client in clients]
-    return EnvPool(envs, seed, parallel=True, replayable=False), str(first.scenario_path)
-
-
 def _backend(args: argparse.Namespace, config: MappoConfig, seed: int, scenario: Optional[str]) -> Dict[str, Any]:
-    """Runner arguments of the chosen backend and the scenario it runs."""
+    """Runner arguments of the chosen backend (environments and their greedy evaluation) and the
+    scenario it runs."""
     if args.backend == "ros":
-        pool, scenario = ros_pool(config, seed, scenario, args.manager_wait)
-        return {"make_env": None, "pool": pool, "scenario": scenario}
-    return {"make_env": env_factory(scenario, config, "embedded"), "scenario": scenario}
+        from marl_mrta.ros.arena_pool import arena_pool
+        pool, scenario = arena_pool(config, seed, scenario, args.manager_wait)
+        return {"make_env": None, "pool": pool, "evaluate": in_pool(pool), "scenario": scenario}
+    make_env = embedded_factory(scenario, config)
+    return {"make_env": make_env, "evaluate": on_new_env(make_env), "scenario": scenario}
 
 
 def _resumed_runner(args: argparse.Namespace, log: Callable[[str], None]) -> Runner:
@@ -146,7 +104,8 @@ def _resumed_runner(args: argparse.Namespace, log: Callable[[str], None]) -> Run
     if args.backend == "ros" and args.arenas is not None and args.arenas != config.n_envs:
         raise RunError(f"--arenas: {args.arenas} differs from the run's {config.n_envs} environments")
     backend = _backend(args, config, stored["seed"], stored["scenario"])
-    runner = Runner.resume(Path(args.out), backend["make_env"], log=log, pool=backend.get("pool"))
+    runner = Runner.resume(Path(args.out), backend["make_env"], evaluate=backend["evaluate"], log=log,
+                           pool=backend.get("pool"))
     note = " (running episodes restart: a simulation is not replayed)" if args.backend == "ros" else ""
     log(f"train: resuming {args.out} at update {runner.update}/{config.n_updates}{note}")
     return runner
@@ -164,8 +123,8 @@ def _fresh_runner(args: argparse.Namespace, log: Callable[[str], None]) -> Runne
     suffix = f"_ros{config.n_envs}" if args.backend == "ros" else ""
     run_name = f"{Path(scenario).stem}_{Path(preset).stem}{suffix}_s{seed}"
     out = Path(args.out) if args.out else package_root() / "results" / "runs" / run_name
-    runner = Runner(config, backend["make_env"], scenario=scenario, seed=seed, out_dir=out, log=log,
-                    pool=backend.get("pool"))
+    runner = Runner(config, backend["make_env"], evaluate=backend["evaluate"], scenario=scenario, seed=seed,
+                    out_dir=out, log=log, pool=backend.get("pool"))
     runner.start()
     where = f"{config.n_envs} ROS arenas" if args.backend == "ros" else f"{config.n_envs} embedded environments"
     log(f"train: {scenario} with preset {preset}, seed {seed}, {config.n_updates} updates of "
@@ -177,7 +136,7 @@ def main(argv: Optional[List[str]] = None, log: Callable[[str], None] = print) -
     args = build_parser().parse_args(argv)
     lost: tuple = ()
     if args.backend == "ros":
-        from ..ros.env_client import ManagerUnavailable
+        from marl_mrta.ros.env_client import ManagerUnavailable
         lost = (ManagerUnavailable,)
     try:
         runner = _resumed_runner(args, log) if args.resume else _fresh_runner(args, log)

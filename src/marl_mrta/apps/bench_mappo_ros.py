@@ -29,9 +29,13 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any, Callable, Dict, List, Optional
 
-from ..ros.process_group import stop_process_group
-from .config import MappoConfig
-from .runner import Runner
+from marl_mrta.baselines.reference import scenario_reference
+from marl_mrta.evaluation.loop import run_episodes
+from marl_mrta.evaluation.policies import PlanPolicy
+from marl_mrta.evaluation.training import in_pool
+from marl_mrta.mappo.config import MappoConfig
+from marl_mrta.mappo.runner import Runner
+from marl_mrta.ros.process_group import stop_process_group
 
 WITHIN = 1.05
 
@@ -74,16 +78,8 @@ class RosGraph:
 
 def exact_in_ros(pool, scenario, log) -> Dict[str, Any]:
     """The exact plan's episode in arena 0 of the simulation (the reference of the target)."""
-    from ..baselines.plan import SchedulingInstance
-    from ..baselines.settings import load_baseline_settings
-    from ..env.factory import scenario_travel_table
-    from ..evaluation.cli import exact_reference
-    from ..evaluation.policies import PlanPolicy
-    from ..evaluation.runner import run_episodes
-
     client = pool.envs[0].env
-    instance = SchedulingInstance.from_scenario(scenario, scenario_travel_table(scenario), client.settings.min_step)
-    plan = exact_reference(instance, load_baseline_settings())
+    plan, instance = scenario_reference(scenario, client.settings.min_step)
     started = time.perf_counter()
     record = run_episodes(client, PlanPolicy(plan, client.n_agents, client.n_tasks), 1, 0)[0]
     log(f"exact plan in the ROS simulation: {record.makespan:.2f} s (nominal {plan.makespan:.2f} s), "
@@ -127,8 +123,9 @@ def _pretrained(tuned: MappoConfig, ros_config: MappoConfig, scenario_path: str,
     def ros_runner(actor: str) -> Runner:
         """A fresh ros-backend run in `out`, starting from the embedded run's checkpoint beside `actor`."""
         shutil.rmtree(out, ignore_errors=True)
-        runner = Runner(ros_config, None, scenario=scenario_file, seed=seed, out_dir=out, log=log,
-                        target_makespan=target, stop_at_target=True, tensorboard=False, plots=False, pool=pool)
+        runner = Runner(ros_config, None, evaluate=in_pool(pool), scenario=scenario_file, seed=seed, out_dir=out,
+                        log=log, target_makespan=target, stop_at_target=True, tensorboard=False, plots=False,
+                        pool=pool)
         runner.trainer.load_state_dict(Runner.read_checkpoint(Path(actor).with_name("checkpoint.pt"))["trainer"])
         runner.start()
         return runner
@@ -176,21 +173,21 @@ def _pretrained(tuned: MappoConfig, ros_config: MappoConfig, scenario_path: str,
 def measure(tuned: MappoConfig, scenario_path: str, arenas: int, minutes: float, port: int, seed: int,
             runs: Path, embedded_target: float, train_embedded: Callable, modes: List[str], log, *,
             pretrain_seeds: int) -> Dict[str, Any]:
-    from .cli import ros_pool
+    from marl_mrta.ros.arena_pool import arena_pool
 
     ros_config = replace(tuned, n_envs=arenas, eval_every=1, eval_episodes=arenas)
     result: Dict[str, Any] = {"arenas": arenas, "criterion": f"greedy makespan in the ROS simulation <= {WITHIN} x "
                               "the exact plan's makespan in the same simulation", "seed": seed}
     with RosGraph(scenario_path, arenas, port, runs / "ros_graph.log", tuned.action_mask):
         started = time.perf_counter()
-        from ..ros.env_client import ManagerUnavailable
-        from .runner import RunError
+        from marl_mrta.ros.env_client import ManagerUnavailable
+        from marl_mrta.mappo.runner import RunError
         try:
-            pool, scenario_file = ros_pool(ros_config, seed, scenario_path, manager_wait=300.0)
+            pool, scenario_file = arena_pool(ros_config, seed, scenario_path, manager_wait=300.0)
         except (ManagerUnavailable, RunError) as error:
             raise GraphError(f"{error} (graph log: {runs / 'ros_graph.log'})") from None
         result["graph_startup_s"] = round(time.perf_counter() - started, 1)
-        from ..scenario import load_scenario
+        from marl_mrta.model.scenario import load_scenario
         exact = exact_in_ros(pool, load_scenario(scenario_file), log)
         target = WITHIN * exact["makespan_s"]
         result["exact_in_ros"] = exact
@@ -208,8 +205,9 @@ def measure(tuned: MappoConfig, scenario_path: str, arenas: int, minutes: float,
             log(f"scratch: {ros_config.decision_order} decisions, batch {ros_config.batch_size}, on {arenas} ROS arenas, at most {minutes:g} min (target {target:.2f} s)")
             out = runs / "ros_scratch"
             shutil.rmtree(out, ignore_errors=True)
-            runner = Runner(ros_config, None, scenario=scenario_file, seed=seed, out_dir=out, log=log,
-                            target_makespan=target, stop_at_target=True, tensorboard=False, plots=False, pool=pool)
+            runner = Runner(ros_config, None, evaluate=in_pool(pool), scenario=scenario_file, seed=seed, out_dir=out,
+                            log=log, target_makespan=target, stop_at_target=True, tensorboard=False, plots=False,
+                            pool=pool)
             runner.start()
             scratch = _ros_run(runner, minutes, log)
             scratch["cap_minutes"] = minutes

@@ -1,34 +1,15 @@
-"""Run a decision maker through the environment for N episodes and summarise (paper Tables 8–9)."""
+"""What an evaluation reports of a method's episodes: the paper's Tables 8–9, progress, documents."""
 from __future__ import annotations
 
+import json
 import math
 import sys
 import time
 from dataclasses import dataclass
-from typing import Any, Callable, Dict, List, Optional, Sequence
+from pathlib import Path
+from typing import Any, Dict, List, Optional, Sequence
 
-from ..tasks.schedule import EpisodeRecord
-
-ProgressFn = Callable[[int, int], None]
-
-
-def run_episodes(env, policy, episodes: int, seed: int, progress: Optional[ProgressFn] = None,
-                 max_steps: int = 10_000) -> List[EpisodeRecord]:
-    """Episode k is reset with seed + k, so runs are reproducible and methods see the same noise draws."""
-    records: List[EpisodeRecord] = []
-    for k in range(episodes):
-        output = env.reset(seed=seed + k)
-        policy.begin_episode(output, k)
-        for _ in range(max_steps):
-            output = env.step(policy.act(output))
-            if output.done or output.truncated:
-                break
-        else:
-            raise RuntimeError(f"episode {k} did not end within {max_steps} steps")
-        records.append(output.info["episode"])
-        if progress is not None:
-            progress(k + 1, episodes)
-    return records
+from marl_mrta.model.schedule import EpisodeRecord
 
 
 def _mean_sd(values: Sequence[float]):
@@ -121,3 +102,38 @@ def format_table(summaries: Sequence[MethodSummary]) -> str:
         robots = "; ".join(f"R{i} = [{', '.join(tasks)}]" for i, tasks in enumerate(s.allocation))
         lines.append(f"{s.method} allocation (episode {s.representative}): {robots}")
     return "\n".join(lines)
+
+
+def episode_rows(records: Sequence[EpisodeRecord]) -> List[Dict[str, Any]]:
+    """One line of figures per episode, as the result documents list them."""
+    return [{"makespan": r.makespan, "decision_steps": r.decision_steps, "complete": r.complete,
+             "logic_consistent": r.logic_consistent, "collisions": sum(r.collisions),
+             "tasks_per_robot": r.tasks_per_robot()} for r in records]
+
+
+def json_value(value: Any) -> Any:
+    """json.dumps' `default` for result documents: numpy scalars, non-finite floats as text."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return str(value)
+    if hasattr(value, "item"):
+        return value.item()
+    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
+
+
+def method_report(method: str, records: Sequence[EpisodeRecord], categories: Sequence[str], gantt: Path,
+                  title: str, exact_makespan: Optional[float]) -> "tuple[MethodSummary, Dict[str, Any]]":
+    """A method's summary, the Gantt chart of its representative episode (written to `gantt`) and
+    the document part every result file carries: summary, chart path, representative episode."""
+    from marl_mrta.evaluation.gantt import plot_gantt   # matplotlib only where a chart is drawn
+    summary = summarize(method, records, exact_makespan)
+    plot_gantt(records[summary.representative], list(categories), gantt, title=title)
+    return summary, {"summary": summary.as_dict(), "gantt": str(gantt),
+                     "representative_episode": records[summary.representative].to_dict()}
+
+
+def write_document(path: Path, document: Dict[str, Any]) -> None:
+    """The JSON result file, written atomically (a kill never leaves half a file)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps(document, indent=1, default=json_value))
+    tmp.replace(path)

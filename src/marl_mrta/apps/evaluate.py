@@ -10,27 +10,27 @@ Gantt chart PNG per method (<out stem>_<method>_gantt.png). Bad input -> one lin
 from __future__ import annotations
 
 import argparse
-import json
-import math
 import os
 import sys
 import time
 from pathlib import Path
 from typing import Any, Dict, Optional, Sequence
 
-from ..baselines.auction import solve_auction
-from ..baselines.exact import solve_exact
-from ..baselines.ga import solve_ga
-from ..baselines.plan import Plan, SchedulingInstance
-from ..baselines.random_policy import RandomPolicy
-from ..baselines.settings import load_baseline_settings
-from ..env.factory import EXECUTORS, make_env, scenario_travel_table
-from ..env.settings import MASK_MODES
-from ..scenario import ScenarioError
-from ..tasks.config_reader import ConfigError, package_root
-from .gantt import plot_gantt
-from .policies import LearnedPolicy, PlanPolicy, PolicyLoadError
-from .runner import ProgressLine, format_table, run_episodes, summarize
+from marl_mrta.baselines.auction import solve_auction
+from marl_mrta.baselines.ga import solve_ga
+from marl_mrta.baselines.plan import Plan, SchedulingInstance
+from marl_mrta.baselines.random_policy import RandomPolicy
+from marl_mrta.baselines.reference import exact_reference, scheduling_instance
+from marl_mrta.baselines.settings import load_baseline_settings
+from marl_mrta.common.config import ConfigError
+from marl_mrta.common.paths import package_root
+from marl_mrta.env.factory import EXECUTORS, make_env
+from marl_mrta.env.settings import MASK_MODES
+from marl_mrta.evaluation.loop import run_episodes
+from marl_mrta.evaluation.policies import LearnedPolicy, PlanPolicy, PolicyLoadError
+from marl_mrta.evaluation.summary import (ProgressLine, episode_rows, format_table, method_report,
+                                          write_document)
+from marl_mrta.model.scenario import ScenarioError
 
 METHODS = ("random", "ga", "exact", "auction", "policy")
 #: "ros": episodes run in the ROS graph through rl_task_allocation_manager's services.
@@ -81,7 +81,7 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> argparse.Namespace:
 
 def make_ros_env(args: argparse.Namespace):
     """The ROS executor: a client of the running task manager, checked against --scenario and --mask."""
-    from ..ros.env_client import RosTaskEnvClient
+    from marl_mrta.ros.env_client import RosTaskEnvClient
     env = RosTaskEnvClient(args.manager)
     if args.scenario and Path(args.scenario).resolve() != env.scenario_path:
         raise UsageError(f"--scenario: {args.scenario} differs from the scenario the task manager runs "
@@ -99,13 +99,6 @@ def plan_for(method: str, instance: SchedulingInstance, settings, seed: int) -> 
     if method == "exact":
         return exact_reference(instance, settings)
     raise ValueError(method)
-
-
-def exact_reference(instance: SchedulingInstance, settings) -> Plan:
-    """The proven optimum, with the auction's consistent plan as the search's first bound."""
-    auction = solve_auction(instance, settings.auction_objective)
-    bound = auction.makespan if auction.logic_violations == 0 else None
-    return solve_exact(instance, settings.exact_max_expansions, upper_bound=bound)
 
 
 def plan_json(plan: Plan, task_ids: Sequence[str]) -> Dict[str, Any]:
@@ -143,8 +136,7 @@ def evaluate(args: argparse.Namespace) -> int:
                        seed=args.seed)
     scenario = env.scenario
     settings = load_baseline_settings()
-    table = scenario_travel_table(scenario)   # plans always come from the nominal travel times
-    instance = SchedulingInstance.from_scenario(scenario, table, env.settings.min_step)
+    instance = scheduling_instance(scenario, env.settings.min_step)
     task_ids = [t.id for t in scenario.tasks]
 
     exact_plan: Optional[Plan] = None
@@ -163,7 +155,7 @@ def evaluate(args: argparse.Namespace) -> int:
         if method == "random":
             policy = RandomPolicy(env.n_agents, env.n_tasks, settings.random_choice, seed=args.seed)
         elif method == "policy":
-            policy = LearnedPolicy(args.policy, env.n_agents, env.obs_dim, env.n_actions, seed=args.seed)
+            policy = LearnedPolicy.from_file(args.policy, env.n_agents, env.obs_dim, env.n_actions, seed=args.seed)
         else:
             plan = exact_plan if method == "exact" else plan_for(method, instance, settings, args.seed)
             policy = PlanPolicy(plan, env.n_agents, env.n_tasks)
@@ -171,18 +163,14 @@ def evaluate(args: argparse.Namespace) -> int:
         started = time.monotonic()
         records = run_episodes(env, policy, args.episodes, args.seed, progress)
         seconds = time.monotonic() - started
-        summary = summarize(method, records, exact_makespan)
+        summary, report = method_report(method, records, [t.category for t in scenario.tasks],
+                                        out.with_name(f"{out.stem}_{method}_gantt.png"),
+                                        f"{method} · {scenario.name}", exact_makespan)
         summaries.append(summary)
-        gantt = out.with_name(f"{out.stem}_{method}_gantt.png")
-        plot_gantt(records[summary.representative], [t.category for t in scenario.tasks], gantt,
-                   title=f"{method} · {scenario.name}")
         results.append({
-            "summary": summary.as_dict(), "seconds": seconds, "gantt": str(gantt),
+            "summary": report["summary"], "seconds": seconds, "gantt": report["gantt"],
             "plan": plan_json(plan, task_ids) if plan is not None else None,
-            "representative_episode": records[summary.representative].to_dict(),
-            "episodes": [{"makespan": r.makespan, "decision_steps": r.decision_steps, "complete": r.complete,
-                          "logic_consistent": r.logic_consistent, "collisions": sum(r.collisions),
-                          "tasks_per_robot": r.tasks_per_robot()} for r in records],
+            "representative_episode": report["representative_episode"], "episodes": episode_rows(records),
         })
     print(format_table(summaries))
     document = {
@@ -194,17 +182,9 @@ def evaluate(args: argparse.Namespace) -> int:
         "exact": plan_json(exact_plan, task_ids) if exact_plan is not None else None,
         "results": results,
     }
-    out.write_text(json.dumps(document, indent=1, default=_json_default))
+    write_document(out, document)
     print(f"wrote {out} and {len(results)} Gantt chart(s)", file=sys.stderr)
     return 0
-
-
-def _json_default(value: Any) -> Any:
-    if isinstance(value, float) and not math.isfinite(value):
-        return str(value)
-    if hasattr(value, "item"):
-        return value.item()
-    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
@@ -212,7 +192,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     try:
         args = parse_args(argv)
         if args.executor == "ros":
-            from ..ros.env_client import ManagerUnavailable
+            from marl_mrta.ros.env_client import ManagerUnavailable
             lost = (ManagerUnavailable,)
         return evaluate(args)
     except (UsageError, ScenarioError, ConfigError, PolicyLoadError) as error:

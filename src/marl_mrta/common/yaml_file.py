@@ -15,13 +15,19 @@ class YamlFileError(ValueError):
     """A YAML file cannot be read or parsed; str(error) is one line naming the file."""
 
 
+def read_input_file(path: Path, error: type, where: str = "") -> bytes:
+    """The bytes of a user's input file; `error` (an exception class) with one line
+    "<file>: [<where>: ]cannot read (<reason>)" when it cannot be read."""
+    try:
+        return path.read_bytes()
+    except OSError as problem:
+        raise error(f"{path}: {where + ': ' if where else ''}cannot read ({problem.strerror})") from None
+
+
 def load_yaml_file(path: Union[str, Path]) -> Any:
     """The parsed content of `path` (None for an empty file)."""
     path = Path(path)
-    try:
-        text = path.read_text()
-    except OSError as error:
-        raise YamlFileError(f"{path}: cannot read ({error.strerror})") from None
+    text = read_input_file(path, YamlFileError)
     try:
         return yaml.safe_load(text)
     except yaml.YAMLError as error:

@@ -32,7 +32,7 @@ from pathlib import Path
 from typing import NamedTuple, Optional, Union
 
 import numpy as np
-from ..yaml_file import YamlFileError, load_yaml_file
+from marl_mrta.common.yaml_file import YamlFileError, load_yaml_file
 
 OCCUPIED = 100
 FREE = 0

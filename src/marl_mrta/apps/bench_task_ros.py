@@ -22,13 +22,11 @@ import time
 from pathlib import Path
 from typing import Any, Dict, List, Optional, Sequence
 
-from ..baselines.plan import SchedulingInstance
-from ..baselines.settings import load_baseline_settings
-from ..env.factory import make_env
-from ..evaluation.cli import exact_reference
-from ..evaluation.policies import PlanPolicy
-from ..evaluation.runner import run_episodes
-from ..tasks.config_reader import package_root
+from marl_mrta.baselines.reference import scenario_reference
+from marl_mrta.common.paths import package_root
+from marl_mrta.env.factory import make_env
+from marl_mrta.evaluation.loop import run_episodes
+from marl_mrta.evaluation.policies import PlanPolicy
 
 METHODS = ("random", "ga", "auction", "exact")
 PAPER_RANDOM_OVER_GA = {2: 2.46, 4: 2.59}
@@ -63,8 +61,7 @@ def run_ros_evaluation(scenario: Path, episodes: int, out: Path, seed: int, time
 def embedded_exact_makespan(scenario: Path) -> float:
     """The exact schedule replayed through the embedded executor (nominal travel times)."""
     env = make_env(scenario, seed=0)
-    instance = SchedulingInstance.from_scenario(env.scenario, env.executor.table, env.settings.min_step)
-    plan = exact_reference(instance, load_baseline_settings())
+    plan, _ = scenario_reference(env.scenario, env.settings.min_step)
     return run_episodes(env, PlanPolicy(plan, env.n_agents, env.n_tasks), 1, seed=0)[0].makespan
 
 

@@ -21,12 +21,15 @@ from typing import Any, Dict, List, Optional
 
 import numpy as np
 
-from ..baselines.exact import solve_exact
-from ..baselines.plan import SchedulingInstance
-from .cli import env_factory, parse_overrides
-from .config import ConfigError, MappoConfig, load_config, resolve_preset
-from .env_pool import episode_seed, evaluate_greedy
-from .runner import Runner
+from marl_mrta.apps.train import parse_overrides
+from marl_mrta.baselines.reference import scenario_reference
+from marl_mrta.common.config import ConfigError
+from marl_mrta.evaluation.training import greedy_episodes, on_new_env
+from marl_mrta.mappo.config import MappoConfig, load_config, resolve_preset
+from marl_mrta.mappo.env_pool import episode_seed
+from marl_mrta.mappo.policy import load_policy
+from marl_mrta.mappo.runner import Runner
+from marl_mrta.mappo.training_env import embedded_factory
 
 PAPER_ALLOCATION = [["A1", "A2", "B2", "B1"], ["A3", "A4", "B3", "B4"]]
 WITHIN = 1.05          # "within 5 % of exact"
@@ -35,8 +38,7 @@ PAPER_BUDGET = 70_000  # decision steps, paper Table 7
 
 def exact_plan(env):
     """The exact solver's proven-optimal plan for the environment's scenario and step rules."""
-    instance = SchedulingInstance.from_scenario(env.scenario, env.executor.table, env.settings.min_step)
-    return solve_exact(instance), instance
+    return scenario_reference(env.scenario, env.settings.min_step)
 
 
 def env_steps_per_second(make_env, seconds: float = 3.0, seed: int = 0) -> float:
@@ -58,9 +60,10 @@ def train(config: MappoConfig, scenario: str, seed: int, out: Path, target: floa
           log) -> Dict[str, Any]:
     shutil.rmtree(out, ignore_errors=True)
     started = time.perf_counter()
-    make_env = env_factory(scenario, config)
-    runner = Runner(config, make_env, scenario=scenario, seed=seed, out_dir=out, log=lambda line: None,
-                    target_makespan=target, stop_at_target=stop_at_target, tensorboard=False, plots=False)
+    make_env = embedded_factory(scenario, config)
+    runner = Runner(config, make_env, evaluate=on_new_env(make_env), scenario=scenario, seed=seed, out_dir=out,
+                    log=lambda line: None, target_makespan=target, stop_at_target=stop_at_target,
+                    tensorboard=False, plots=False)
     runner.start()
     summary = runner.run()
     total = time.perf_counter() - started
@@ -82,14 +85,7 @@ def train(config: MappoConfig, scenario: str, seed: int, out: Path, target: floa
 
 
 def learned_allocation(actor_path: str, make_env, episodes: int, seed: int) -> Dict[str, Any]:
-    from .policy import load_policy
-    policy = load_policy(actor_path)
-
-    def act(obs, mask, hidden):
-        hidden = policy.initial_hidden(len(obs)) if hidden is None else hidden
-        return policy.act_team(obs, mask, hidden, deterministic=True)
-
-    records = evaluate_greedy(act, make_env, [episode_seed(seed, 0, k) for k in range(episodes)])
+    records = greedy_episodes(load_policy(actor_path), make_env(), [episode_seed(seed, 0, k) for k in range(episodes)])
     return {"robot_tasks": records[0].robot_tasks,
             "mean_makespan_s": round(float(np.mean([r.makespan for r in records])), 3),
             "sd_makespan_s": round(float(np.std([r.makespan for r in records])), 3),
@@ -127,7 +123,7 @@ def main(argv: Optional[List[str]] = None) -> int:
         chosen = load_config(resolve_preset(args.preset), parse_overrides(args.set))
         tuned = load_config(resolve_preset("tuned"))
         paper = load_config(resolve_preset("paper"))
-        make_env = env_factory(args.scenario, tuned)
+        make_env = embedded_factory(args.scenario, tuned)
     except (ConfigError, ValueError) as error:
         print(f"bench_mappo: {error}", file=sys.stderr)
         return 2
@@ -160,7 +156,7 @@ def main(argv: Optional[List[str]] = None) -> int:
         log(f"  {name}: greedy / exact = {comparison[name]['ratio_to_exact']}")
 
     allocation = learned_allocation(comparison["tuned"]["actor"], make_env, 5, 1)
-    noisy_env = env_factory(args.scenario, replace(tuned, noise_profile="measured_tb3"))
+    noisy_env = embedded_factory(args.scenario, replace(tuned, noise_profile="measured_tb3"))
     noisy = learned_allocation(comparison["tuned"]["actor"], noisy_env, 20, 2)
     log(f"learned allocation {allocation['robot_tasks']} (paper {PAPER_ALLOCATION}); "
         f"under measured_tb3 noise: {noisy['mean_makespan_s']} s, {noisy['logic_consistent_pct']} % logic-consistent")
@@ -198,7 +194,7 @@ def main(argv: Optional[List[str]] = None) -> int:
 
 
 def _main_ros(args, tuned: MappoConfig, embedded_target: float, out: Path, runs: Path, log) -> int:
-    from .bench_ros import GraphError, measure, merge_into
+    from marl_mrta.apps.bench_mappo_ros import GraphError, measure, merge_into
     modes = [m.strip() for m in args.ros_modes.split(",") if m.strip()]
     unknown = [m for m in modes if m not in ("pretrained", "scratch")]
     if unknown or not modes:

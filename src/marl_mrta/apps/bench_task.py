@@ -13,16 +13,16 @@ import time
 from pathlib import Path
 from typing import Any, Dict, List, Optional, Sequence
 
-from ..baselines.auction import solve_auction
-from ..baselines.ga import solve_ga
-from ..baselines.plan import SchedulingInstance
-from ..baselines.random_policy import RandomPolicy
-from ..baselines.settings import load_baseline_settings
-from ..env.factory import make_env
-from ..tasks.config_reader import package_root
-from .cli import exact_reference
-from .policies import PlanPolicy
-from .runner import format_table, run_episodes, summarize
+from marl_mrta.baselines.auction import solve_auction
+from marl_mrta.baselines.ga import solve_ga
+from marl_mrta.baselines.random_policy import RandomPolicy
+from marl_mrta.baselines.reference import exact_reference, scheduling_instance
+from marl_mrta.baselines.settings import load_baseline_settings
+from marl_mrta.common.paths import package_root
+from marl_mrta.env.factory import make_env
+from marl_mrta.evaluation.loop import run_episodes
+from marl_mrta.evaluation.policies import PlanPolicy
+from marl_mrta.evaluation.summary import format_table, summarize
 
 EPISODES_PER_SECOND_GOAL = 2000.0
 
@@ -52,7 +52,7 @@ def table9(scenario: Path, episodes: int, ga_seeds: int, seed: int) -> Dict[str,
     """Exact, GA (over seeds), auction and random on one scenario, embedded nominal executor."""
     env = make_env(scenario, seed=seed)
     settings = load_baseline_settings()
-    instance = SchedulingInstance.from_scenario(env.scenario, env.executor.table, env.settings.min_step)
+    instance = scheduling_instance(env.scenario, env.settings.min_step)
     started = time.process_time()
     exact = exact_reference(instance, settings)
     exact_seconds = time.process_time() - started

@@ -27,7 +27,8 @@ from scipy import ndimage
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from ..mapping.occupancy_map import FREE, OccupancyMap
+from marl_mrta.model.occupancy_map import FREE, OccupancyMap
+from marl_mrta.model.scenario import Scenario, ScenarioError
 
 LETHAL = 254
 INSCRIBED = 253
@@ -235,15 +236,14 @@ def suggest_nav_thresholds(table: TravelTable, n_robots: int) -> Tuple[float, fl
             math.ceil(1.5 * max(legs) * 2.0) / 2.0)
 
 
-def scenario_poses(scenario) -> List[Tuple[float, float, float]]:
+def scenario_poses(scenario: Scenario) -> List[Tuple[float, float, float]]:
     """The node poses of a scenario: robots' starts, then task goals."""
     return ([(r.start.x, r.start.y, r.start.yaw) for r in scenario.robots]
             + [(t.goal.x, t.goal.y, t.goal.yaw) for t in scenario.tasks])
 
 
-def nominal_travel_table(scenario, model: TravelModel) -> TravelTable:
+def nominal_travel_table(scenario: Scenario, model: TravelModel) -> TravelTable:
     """The cached table of a scenario; ScenarioError naming the robot or task navigation cannot reach."""
-    from ..scenario import ScenarioError
     try:
         return cached_travel_table(str(scenario.map_path), scenario.load_map, scenario_poses(scenario), model)
     except UnreachableGoal as error:
@@ -254,34 +254,3 @@ def nominal_travel_table(scenario, model: TravelModel) -> TravelTable:
             element = f"<task id=\"{scenario.tasks[error.node - scenario.n_robots].id}\">"
             what = "goal"
         raise ScenarioError(f"{scenario.source}: {element}: {what} {error}") from None
-
-
-def main(argv=None) -> int:
-    """Print a scenario's nominal travel-time table and the suggested r_nav thresholds."""
-    import argparse
-    import sys
-    from ..scenario import ScenarioError, load_scenario
-    parser = argparse.ArgumentParser(prog="python3 -m marl_mrta.tasks.travel", description=main.__doc__)
-    parser.add_argument("scenario", help="scenario XML file")
-    args = parser.parse_args(argv)
-    try:
-        scenario = load_scenario(args.scenario)
-        from ..env.factory import scenario_travel_table
-        table = scenario_travel_table(scenario)
-    except (ScenarioError, ValueError) as error:
-        print(f"travel: {error}", file=sys.stderr)
-        return 2
-    names = [r.id for r in scenario.robots] + [t.id for t in scenario.tasks]
-    print("nominal travel time (s), row = from, column = to")
-    print(" " * 6 + "".join(f"{n:>7}" for n in names))
-    for a, name in enumerate(names):
-        print(f"{name:>6}" + "".join(f"{table.nominal_time[a, b]:7.1f}" for b in range(len(names))))
-    t_min, t_avg, t_max = suggest_nav_thresholds(table, scenario.n_robots)
-    print(f'suggested <nav_time t_min="{t_min}" t_avg="{t_avg}" t_max="{t_max}"/> '
-          f'(scenario has {scenario.nav_thresholds.t_min:g} / {scenario.nav_thresholds.t_avg:g} / '
-          f'{scenario.nav_thresholds.t_max:g})')
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -7,11 +7,13 @@ Every value comes from config/reward.yaml, optionally overridden per scenario (t
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Dict, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
-from .config_reader import ConfigError, ConfigSection, default_config_path, read_yaml
+from marl_mrta.common.config import ConfigError, ConfigSection, read_yaml
+from marl_mrta.common.paths import default_config_path
 
 #: The keys of config/reward.yaml (section -> keys); scenario overrides use the same names.
 REWARD_SCHEMA: Dict[str, Tuple[str, ...]] = {
@@ -55,19 +57,45 @@ class RewardConfig:
     @staticmethod
     def load(thresholds: NavThresholds, path: Optional[Union[str, Path]] = None,
              overrides: Optional[Mapping[str, Mapping[str, float]]] = None) -> "RewardConfig":
-        """config/reward.yaml (or `path`) with a scenario's overrides applied on top."""
+        """config/reward.yaml (or `path`) with overrides (checked by check_reward_overrides where
+        they were read) applied on top; a key of neither file nor schema is an unknown key."""
         root = read_yaml(path if path is not None else default_config_path("reward.yaml"))
         for section, values in (overrides or {}).items():
-            if section not in REWARD_SCHEMA:
-                raise ConfigError(f"reward override: unknown section {section!r}")
-            target = root.data.setdefault(section, {})
-            for key, value in values.items():
-                if key not in REWARD_SCHEMA[section]:
-                    raise ConfigError(f"reward override: {section}.{key}: unknown key")
-                target[key] = value
+            root.data.setdefault(section, {}).update(values)
         config = _from_section(root, thresholds)
         root.check_all_used()
         return config
+
+
+def check_reward_overrides(value: Any, where: str) -> Dict[str, Dict[str, float]]:
+    """{section: {key: number}} with the sections and keys of config/reward.yaml, as a scenario's
+    <reward> or the training settings give them; ConfigError "<where>: <section>.<key>: <problem>"."""
+    if not isinstance(value, dict):
+        raise ConfigError(f"{where}: expected a mapping of reward sections, got {value!r}")
+    checked: Dict[str, Dict[str, float]] = {}
+    for section, values in value.items():
+        if section not in REWARD_SCHEMA:
+            raise ConfigError(f"{where}: {section}: unknown reward section (known: {', '.join(REWARD_SCHEMA)})")
+        if not isinstance(values, dict):
+            raise ConfigError(f"{where}: {section}: expected a mapping of keys to numbers, got {values!r}")
+        checked[section] = {}
+        for key, number in values.items():
+            if key not in REWARD_SCHEMA[section]:
+                raise ConfigError(f"{where}: {section}.{key}: unknown key (known: {', '.join(REWARD_SCHEMA[section])})")
+            if isinstance(number, bool) or not isinstance(number, (int, float)) or not math.isfinite(number):
+                raise ConfigError(f"{where}: {section}.{key}: expected a finite number, got {number!r}")
+            checked[section][key] = float(number)
+    return checked
+
+
+def merge_reward_overrides(*layers: Mapping[str, Mapping[str, float]]) -> Dict[str, Dict[str, float]]:
+    """Overrides one over another, later layers winning key by key (a scenario's <reward>, then
+    the training settings')."""
+    merged: Dict[str, Dict[str, float]] = {}
+    for layer in layers:
+        for section, values in layer.items():
+            merged.setdefault(section, {}).update(values)
+    return merged
 
 
 def _from_section(root: ConfigSection, thresholds: NavThresholds) -> "RewardConfig":

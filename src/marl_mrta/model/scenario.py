@@ -12,9 +12,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Dict, List, Optional, Sequence, Tuple, Union
 
-from .mapping.occupancy_map import FREE, OCCUPIED, MapFileError, OccupancyMap, load_map
-from .tasks.config_reader import package_root
-from .tasks.reward import REWARD_SCHEMA, NavThresholds
+from marl_mrta.model.occupancy_map import FREE, OCCUPIED, MapFileError, OccupancyMap, load_map
+from marl_mrta.common.paths import resolve_resource
+from marl_mrta.common.config import ConfigError
+from marl_mrta.model.reward import NavThresholds, check_reward_overrides
 
 
 class ScenarioError(ValueError):
@@ -78,20 +79,6 @@ class Scenario:
 
 
 _ROOT_CHILDREN = ("map", "robots", "tasks", "precedence", "episode", "nav_time", "reward")
-
-
-def resolve_resource(reference: str, relative_to: Path) -> Path:
-    """A file reference of a scenario: package://<pkg>/<path>, absolute, or relative to the
-    scenario's folder."""
-    prefix = "package://"
-    if reference.startswith(prefix):
-        package, _, rest = reference[len(prefix):].partition("/")
-        if package == "marl_mrta":
-            return package_root() / rest
-        import rospkg  # other packages: only ROS knows where they are
-        return Path(rospkg.RosPack().get_path(package)) / rest
-    path = Path(reference)
-    return path if path.is_absolute() else relative_to / path
 
 
 class _Reader:
@@ -216,40 +203,38 @@ def load_scenario(path: Union[str, Path]) -> Scenario:
                     reward_overrides=overrides)
 
 
-def _read_robots(reader: _Reader, parent: ET.Element, grid_map: OccupancyMap) -> Tuple[RobotSpec, ...]:
-    robots: List[RobotSpec] = []
+def _read_posed(reader: _Reader, parent: ET.Element, tag: str, attributes: Sequence[str],
+                optional: Sequence[str], grid_map: OccupancyMap, what: str) -> List[Tuple[ET.Element, str, Pose2D]]:
+    """The <tag> children of `parent`: element, unique id and pose on a free cell, in order."""
+    found: List[Tuple[ET.Element, str, Pose2D]] = []
     seen = set()
-    for element in reader.children(parent, "robot"):
-        reader.attributes(element, ("id", "x", "y", "yaw"))
-        robot_id = reader.text(element, "id")
-        if robot_id in seen:
-            raise reader.fail(element, "duplicate robot id")
-        seen.add(robot_id)
-        start = reader.pose(element)
-        reader.check_on_free_cell(element, grid_map, start, "start pose")
-        robots.append(RobotSpec(robot_id, start))
-    if not robots:
-        raise reader.fail(parent, "no <robot> given")
-    return tuple(robots)
+    for element in reader.children(parent, tag):
+        reader.attributes(element, attributes, optional)
+        key = reader.text(element, "id")
+        if key in seen:
+            raise reader.fail(element, f"duplicate {tag} id")
+        seen.add(key)
+        pose = reader.pose(element)
+        reader.check_on_free_cell(element, grid_map, pose, what)
+        found.append((element, key, pose))
+    if not found:
+        raise reader.fail(parent, f"no <{tag}> given")
+    return found
+
+
+def _read_robots(reader: _Reader, parent: ET.Element, grid_map: OccupancyMap) -> Tuple[RobotSpec, ...]:
+    return tuple(RobotSpec(robot_id, start) for _, robot_id, start in
+                 _read_posed(reader, parent, "robot", ("id", "x", "y", "yaw"), (), grid_map, "start pose"))
 
 
 def _read_tasks(reader: _Reader, parent: ET.Element, grid_map: OccupancyMap) -> Tuple[TaskSpec, ...]:
     tasks: List[TaskSpec] = []
-    seen = set()
-    for element in reader.children(parent, "task"):
-        reader.attributes(element, ("id", "category", "x", "y", "yaw"), ("service_time",))
-        task_id = reader.text(element, "id")
-        if task_id in seen:
-            raise reader.fail(element, "duplicate task id")
-        seen.add(task_id)
-        goal = reader.pose(element)
-        reader.check_on_free_cell(element, grid_map, goal, "goal")
+    for element, task_id, goal in _read_posed(reader, parent, "task", ("id", "category", "x", "y", "yaw"),
+                                              ("service_time",), grid_map, "goal"):
         service = reader.number(element, "service_time", default=0.0)
         if service < 0.0:
             raise reader.fail(element, f"service_time must not be negative, got {service:g}")
         tasks.append(TaskSpec(task_id, reader.text(element, "category"), goal, service))
-    if not tasks:
-        raise reader.fail(parent, "no <task> given")
     return tuple(tasks)
 
 
@@ -310,15 +295,15 @@ def _find_cycle(preds: Sequence[Sequence[int]]) -> List[int]:
 
 
 def _read_reward_overrides(reader: _Reader, parent: Optional[ET.Element]) -> Dict[str, Dict[str, float]]:
-    overrides: Dict[str, Dict[str, float]] = {}
+    raw: Dict[str, Dict[str, float]] = {}
     if parent is None:
-        return overrides
+        return raw
     reader.attributes(parent, ())
     for element in parent:
-        if element.tag not in REWARD_SCHEMA:
-            raise reader.fail(element, f"unknown reward section (expected one of {', '.join(REWARD_SCHEMA)})")
-        if element.tag in overrides:
+        if element.tag in raw:
             raise reader.fail(element, "given more than once")
-        reader.attributes(element, (), REWARD_SCHEMA[element.tag])
-        overrides[element.tag] = {name: reader.number(element, name) for name in element.attrib}
-    return overrides
+        raw[element.tag] = {name: reader.number(element, name) for name in element.attrib}
+    try:
+        return check_reward_overrides(raw, f"{reader.path}: <reward>")
+    except ConfigError as error:
+        raise ScenarioError(str(error)) from None

@@ -1,0 +1,127 @@
+"""rl_manager: decentralised execution (`execute`) and MAPPO training (`train`) as ROS nodes.
+
+`execute` is an orchestrator, not a policy: it resets the task manager, sends each robot only
+its own observation row on /<robot>/task_observation, collects every robot's
+/<robot>/task_choice for that step, and steps the manager with the joint action. The episodes
+run through the one episode loop (the same statistics and table as `evaluate`).
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+from typing import Callable, Dict, Optional, Sequence
+
+import rospy
+
+from marl_mrta.baselines.reference import scenario_reference
+from marl_mrta.common.config import ConfigError
+from marl_mrta.common.paths import package_root
+from marl_mrta.evaluation.decentralised import ActorTimeout, ChoiceBoard, DecentralisedPolicy
+from marl_mrta.evaluation.loop import run_episodes
+from marl_mrta.evaluation.summary import ProgressLine, episode_rows, format_table, method_report, write_document
+from marl_mrta.mappo.claims import ClaimRules
+from marl_mrta.model.scenario import ScenarioError
+from marl_mrta.ros.actor_links import RosActorLinks, check_actor_masks
+from marl_mrta.ros.env_client import ManagerUnavailable, RosTaskEnvClient
+
+
+def parse_execute_args(argv: Sequence[str]) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(prog="rl_manager execute",
+                                     description="Run episodes decided by the robots' own robot_actor nodes.")
+    parser.add_argument("--episodes", type=int, default=20, help="episodes (default 20)")
+    parser.add_argument("--seed", type=int, default=0, help="episode k is reset with seed + k (default 0)")
+    parser.add_argument("--manager", default="/rl_task_allocation_manager", help="the task manager node")
+    parser.add_argument("--choice-timeout", type=float, default=30.0,
+                        help="wall s to wait for every robot's task_choice of a step (default 30)")
+    parser.add_argument("--connect-timeout", type=float, default=120.0,
+                        help="wall s to wait for the robots' actors at start (default 120)")
+    parser.add_argument("--out", default=None,
+                        help="JSON output file (default results/execute_ros_<scenario>.json, Gantt chart beside it)")
+    parser.add_argument("--no-exact", action="store_true", help="skip the exact reference (no ratio column)")
+    args = parser.parse_args(list(argv))
+    if args.episodes < 1:
+        raise ValueError(f"--episodes: must be at least 1, got {args.episodes}")
+    for name in ("choice_timeout", "connect_timeout"):
+        if not getattr(args, name) > 0:
+            raise ValueError(f"--{name.replace('_', '-')}: must be positive, got {getattr(args, name)}")
+    return args
+
+
+def execute(args: argparse.Namespace, log: Callable[[str], None]) -> Dict:
+    """Run args.episodes decentralised episodes, print the evaluation table, write the JSON."""
+    env = RosTaskEnvClient(args.manager)
+    prefix = rospy.get_param(env.manager + "/robot_prefix", "")
+    namespaces = [prefix + robot.id for robot in env.scenario.robots]
+    board = ChoiceBoard(namespaces)
+    links = RosActorLinks(namespaces, board)
+    log(f"rl_manager: waiting for the actors of {', '.join(namespaces)}")
+    links.wait_connected(args.connect_timeout)
+    decision_order = check_actor_masks(namespaces, env.settings.mask)
+    claim_rules = ClaimRules(decision_order, env.scenario.predecessors)
+    if claim_rules.sequential:
+        log(f"rl_manager: decision order {decision_order}: robots answer in turn, each told the tasks claimed before it")
+
+    exact_makespan = None
+    if not args.no_exact:
+        exact, _ = scenario_reference(env.scenario, env.settings.min_step)
+        exact_makespan = exact.makespan if exact.proven_optimal else None
+
+    policy = DecentralisedPolicy(env.n_agents, links.send, board, args.choice_timeout, stop=rospy.is_shutdown,
+                                 claim_rules=claim_rules)
+    started = time.monotonic()
+    records = run_episodes(env, policy, args.episodes, args.seed, ProgressLine(f"decentralised on {env.scenario.name}"))
+    seconds = time.monotonic() - started
+
+    out = Path(args.out) if args.out else package_root() / "results" / f"execute_ros_{env.scenario.name}.json"
+    summary, report = method_report(policy.name, records, [t.category for t in env.scenario.tasks],
+                                    out.with_name(f"{out.stem}_gantt.png"),
+                                    f"decentralised · {env.scenario.name}", exact_makespan)
+    print(format_table([summary]))
+    document = {
+        "scenario": str(env.scenario.source), "scenario_name": env.scenario.name, "executor": "ros",
+        "execution": "decentralised", "profile": env.noise_profile, "robots": namespaces, "mask": env.settings.mask,
+        "episodes": args.episodes, "seed": args.seed, "exact_makespan": exact_makespan,
+        "seconds": seconds, **report, "records": episode_rows(records),
+    }
+    write_document(out, document)
+    log(f"rl_manager: {args.episodes} episode(s) in {seconds:.1f} s wall; wrote {out} and {report['gantt']}")
+    return document
+
+
+def train(argv: Sequence[str]) -> int:
+    """rl_manager train: the MAPPO trainer (apps/train.py) as a node, logging to rosconsole. Its
+    own SIGINT/SIGTERM handling ends a run with a checkpoint, so rospy's is off."""
+    from marl_mrta.apps.train import main as train_main
+    rospy.init_node("rl_manager", disable_signals=True)
+    try:
+        return train_main(list(argv), log=rospy.loginfo)
+    finally:
+        rospy.signal_shutdown("training ended")
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """rl_manager MODE [options]; modes `execute` (decentralised episodes) and `train` (MAPPO)."""
+    argv = [a for a in (sys.argv[1:] if argv is None else argv) if ":=" not in a]   # roslaunch remappings
+    if argv and argv[0] == "train":
+        return train(argv[1:])
+    if not argv or argv[0] != "execute":
+        print("rl_manager: mode: give `execute` (rl_manager execute --episodes N ...) or `train` "
+              "(rl_manager train --backend ros --arenas K ...; see train --help)", file=sys.stderr)
+        return 2
+    try:
+        args = parse_execute_args(argv[1:])
+    except ValueError as error:
+        print(f"rl_manager: {error}", file=sys.stderr)
+        return 2
+    rospy.init_node("rl_manager")
+    try:
+        execute(args, rospy.loginfo)
+    except (ActorTimeout, ManagerUnavailable) as error:
+        rospy.logfatal(f"rl_manager: {error}")
+        return 1
+    except (ValueError, ScenarioError, ConfigError) as error:
+        rospy.logfatal(f"rl_manager: {error}")
+        return 2
+    return 0

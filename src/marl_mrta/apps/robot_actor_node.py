@@ -1,0 +1,47 @@
+"""robot_actor: one robot's trained actor at run time (decentralised execution, docs/mappo.md).
+
+Started in the robot's namespace (launch/execute.launch). Parameters: ~policy (actor file),
+~agent_index (this robot's index in the scenario's robot order). Subscribes only to this
+robot's task_observation (marl_mrta/RobotObservation) and publishes its choice on task_choice
+(marl_mrta/TaskChoice); its GRU state is its own, reset at each episode_start. Sets
+~action_mask and ~decision_order to those its policy was trained with (rl_manager checks them;
+a sequential policy is asked in turn, with the tasks claimed before it in `claimed`).
+"""
+
+import rospy
+
+from marl_mrta.mappo.policy import PolicyFileError, load_policy
+from marl_mrta.msg import RobotObservation, TaskChoice
+from marl_mrta.evaluation.robot_actor import ObservationError, RobotActor
+
+
+def main() -> int:
+    rospy.init_node("robot_actor")
+    name = rospy.get_name()
+    if not rospy.has_param("~policy") or not rospy.has_param("~agent_index"):
+        rospy.logfatal("%s/%s: missing: give the actor file (~policy) and this robot's index (~agent_index)",
+                       name, "policy" if not rospy.has_param("~policy") else "agent_index")
+        return 2
+    try:
+        actor = RobotActor(load_policy(rospy.get_param("~policy")), int(rospy.get_param("~agent_index")))
+    except (PolicyFileError, ObservationError, ValueError) as error:
+        rospy.logfatal("%s: %s", name, error)
+        return 2
+    rospy.set_param("~action_mask", actor.policy.action_mask)
+    rospy.set_param("~decision_order", actor.policy.decision_order)
+    choices = rospy.Publisher("task_choice", TaskChoice, queue_size=10)
+
+    def on_observation(msg: RobotObservation) -> None:
+        try:
+            decision = actor.decide(msg.episode, msg.step, msg.episode_start, msg.obs, msg.action_mask,
+                                    msg.agent_index, msg.claimed)
+        except ObservationError as error:
+            # Not answering makes rl_manager stop with a timeout naming this robot; say why here.
+            rospy.logerr_throttle(5.0, "%s: episode %d step %d: %s" % (name, msg.episode, msg.step, error))
+            return
+        choices.publish(TaskChoice(episode=decision.episode, step=decision.step, action=decision.action))
+
+    rospy.Subscriber("task_observation", RobotObservation, on_observation, queue_size=10)
+    rospy.loginfo("%s: robot %d acting with %s", name, actor.agent_index, rospy.get_param("~policy"))
+    rospy.spin()
+    return 0

@@ -1,0 +1,31 @@
+"""Where the package's files are: the package root, its config files, a scenario's resources."""
+from __future__ import annotations
+
+from pathlib import Path
+
+
+def package_root() -> Path:
+    """The marl_mrta package directory (source checkout or installed share directory)."""
+    checkout = Path(__file__).resolve().parents[3]   # <root>/src/marl_mrta/common/this file
+    if (checkout / "package.xml").is_file():
+        return checkout
+    import rospkg  # an installed package: ask ROS where its share directory is
+    return Path(rospkg.RosPack().get_path("marl_mrta"))
+
+
+def default_config_path(name: str) -> Path:
+    """config/<name> of the package."""
+    return package_root() / "config" / name
+
+
+def resolve_resource(reference: str, relative_to: Path) -> Path:
+    """A file reference of a scenario: package://<pkg>/<path>, absolute, or relative to `relative_to`."""
+    prefix = "package://"
+    if reference.startswith(prefix):
+        package, _, rest = reference[len(prefix):].partition("/")
+        if package == "marl_mrta":
+            return package_root() / rest
+        import rospkg  # other packages: only ROS knows where they are
+        return Path(rospkg.RosPack().get_path(package)) / rest
+    path = Path(reference)
+    return path if path.is_absolute() else relative_to / path

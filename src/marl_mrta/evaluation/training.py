@@ -1,0 +1,45 @@
+"""Greedy evaluations of a policy in training (mappo/runner.py's `evaluate`), through the one
+episode loop: on an environment of the run's factory, or in the run's own pool of environments
+(arenas of a simulation, stepped in parallel)."""
+from __future__ import annotations
+
+from typing import Callable, List, Sequence
+
+from marl_mrta.env.api import StepOutput, TaskAllocationEnv
+from marl_mrta.evaluation.loop import run_episode
+from marl_mrta.evaluation.policies import LearnedPolicy
+from marl_mrta.mappo.env_pool import EnvPool, EpisodeSummary, EpisodeTally
+from marl_mrta.mappo.policy import ActorPolicy
+from marl_mrta.mappo.runner import GreedyEvaluation
+
+
+def greedy_episodes(actor: ActorPolicy, env: TaskAllocationEnv, seeds: Sequence[int],
+                    env_index: int = -1) -> List[EpisodeSummary]:
+    """One greedy episode per seed on `env`, each summarised with its rewards."""
+    policy = LearnedPolicy(actor, env.n_agents)
+    summaries = []
+    for seed in seeds:
+        tally = EpisodeTally(env.n_agents)
+        last = {}
+
+        def book(out: StepOutput) -> None:
+            tally.add(out)
+            last["output"] = out
+
+        run_episode(env, policy, int(seed), on_step=book)
+        summaries.append(tally.summary(env_index, last["output"]))
+    return summaries
+
+
+def on_new_env(make_env: Callable[[], TaskAllocationEnv]) -> GreedyEvaluation:
+    """Evaluations on a fresh environment of the factory each time."""
+    return lambda actor, seeds: greedy_episodes(actor, make_env(), seeds)
+
+
+def in_pool(pool: EnvPool) -> GreedyEvaluation:
+    """Evaluations in the pool's environments: seed k on environment k mod n_envs, in parallel
+    when the pool steps in parallel; the running training episodes are lost (the runner restarts them)."""
+    def evaluate(actor: ActorPolicy, seeds: Sequence[int]) -> List[EpisodeSummary]:
+        per_env = pool.map(lambda i: greedy_episodes(actor, pool.envs[i], seeds[i::pool.n_envs], env_index=i))
+        return [per_env[k % pool.n_envs][k // pool.n_envs] for k in range(len(seeds))]
+    return evaluate

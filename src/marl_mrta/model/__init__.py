@@ -1,0 +1,1 @@
+"""The model: maps, scenarios, task rules, reward, schedule record, robot, noise profiles, travel times."""

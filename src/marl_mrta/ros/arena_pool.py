@@ -1,0 +1,40 @@
+"""The task managers of K arenas of one simulator as one pool of environments for training.
+
+Each arena's rl_task_allocation_manager is an environment (env_client.py), scored with the
+run's training reward (mappo/training_env.py), stepped in parallel threads and, being a
+simulation, not replayed on resume.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional, Tuple
+
+from marl_mrta.mappo.config import MappoConfig
+from marl_mrta.mappo.env_pool import EnvPool
+from marl_mrta.mappo.runner import RunError
+from marl_mrta.mappo.training_env import TrainingRewardEnv, training_reward
+from marl_mrta.ros.env_client import ManagerUnavailable, RosTaskEnvClient, arena_managers
+
+
+def arena_pool(config: MappoConfig, seed: int, scenario: Optional[str], manager_wait: float) -> Tuple[EnvPool, str]:
+    """The running task managers of config.n_envs arenas as a parallel EnvPool, and the scenario
+    file they run; checks that they run `scenario` (when given) and the mask the settings expect."""
+    import rosgraph
+    if not rosgraph.is_master_online():
+        raise ManagerUnavailable(f"no ROS master at {rosgraph.get_master_uri()}: start the arenas first "
+                                 f"(roslaunch marl_mrta tasks.launch arenas:={config.n_envs} mask:={config.action_mask}, "
+                                 f"or train with roslaunch marl_mrta train.launch backend:=ros)")
+    clients = [RosTaskEnvClient(name, wait_wall=manager_wait) for name in arena_managers(config.n_envs)]
+    first = clients[0]
+    for client in clients:
+        source = client.scenario_path
+        if scenario is not None and source != Path(scenario).resolve():
+            raise RunError(f"{client.manager}: runs scenario {source}, the training is for {scenario}")
+        if client.settings.mask != config.action_mask:
+            raise RunError(f"{client.manager}: mask: the manager masks {client.settings.mask!r}, the settings "
+                           f"train with action_mask {config.action_mask!r} (start it with mask:={config.action_mask})")
+        if source != first.scenario_path:
+            raise RunError(f"{client.manager}: runs scenario {source}, {first.manager} runs {first.scenario_path}")
+    reward = training_reward(first.scenario, config.reward_overrides)
+    envs = [TrainingRewardEnv(client, reward, client.n_tasks) for client in clients]
+    return EnvPool(envs, seed, parallel=True, replayable=False), str(first.scenario_path)
