@@ -15,10 +15,14 @@ add_library(${PROJECT_NAME}_nav_core
   src/nav/move_base_core.cpp
   src/nav/navfn_planner.cpp
   src/nav/obstacle_layer.cpp
-  src/nav/param_tree.cpp
   src/nav/static_layer.cpp
 )
-target_link_libraries(${PROJECT_NAME}_nav_core ${PROJECT_NAME}_map ${YAML_CPP_LIBRARIES})
+target_link_libraries(${PROJECT_NAME}_nav_core ${PROJECT_NAME}_map ${PROJECT_NAME}_params ${YAML_CPP_LIBRARIES})
+
+# Travel paths for the embedded executor (Python ctypes, a C ABI): navfn between every pair of
+# poses on move_base's global costmap, the same core navigation runs. ROS-free.
+add_library(${PROJECT_NAME}_travel src/nav/travel_c_api.cpp)
+target_link_libraries(${PROJECT_NAME}_travel ${PROJECT_NAME}_nav_core ${PROJECT_NAME}_map)
 
 # ROS glue shared by the nodes (parameter tree conversion, message conversions).
 add_library(${PROJECT_NAME}_nav_ros src/nav/nodes/map_server_ros.cpp src/nav/nodes/ros_conversions.cpp)
@@ -43,33 +47,16 @@ add_library(${PROJECT_NAME}_move_base_ros
 target_link_libraries(${PROJECT_NAME}_move_base_ros ${PROJECT_NAME}_nav_ros ${PROJECT_NAME}_nav_core ${catkin_LIBRARIES})
 add_dependencies(${PROJECT_NAME}_move_base_ros ${PROJECT_NAME}_generate_messages_cpp ${catkin_EXPORTED_TARGETS})
 target_link_libraries(nav_move_base ${PROJECT_NAME}_move_base_ros)
-install(TARGETS ${PROJECT_NAME}_move_base_ros ${PROJECT_NAME}_nav_core ${PROJECT_NAME}_nav_ros
+install(TARGETS ${PROJECT_NAME}_move_base_ros ${PROJECT_NAME}_nav_core ${PROJECT_NAME}_nav_ros ${PROJECT_NAME}_travel
   ARCHIVE DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
   LIBRARY DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
   RUNTIME DESTINATION ${CATKIN_GLOBAL_BIN_DESTINATION})
 
 # Speed of the cores alone (scripts/bench_nav runs it).
 add_executable(bench_nav_core src/nav/bench_nav_core.cpp)
-target_link_libraries(bench_nav_core ${PROJECT_NAME}_nav_core)
+target_link_libraries(bench_nav_core ${PROJECT_NAME}_nav_core ${PROJECT_NAME}_travel)
 install(TARGETS bench_nav_core RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 
-if(CATKIN_ENABLE_TESTING)
-  if(NOT DEFINED MARL_MRTA_GTEST_MAIN)
-    if(TARGET GTest::gtest_main)
-      set(MARL_MRTA_GTEST_MAIN GTest::gtest_main)
-    elseif(TARGET gtest_main)
-      set(MARL_MRTA_GTEST_MAIN gtest_main)
-    endif()
-  endif()
-  catkin_add_gtest(test_nav_core
-    test/gtest/nav/test_costmap.cpp
-    test/gtest/nav/test_navfn.cpp
-    test/gtest/nav/test_dwa.cpp
-    test/gtest/nav/test_nav_params.cpp
-    test/gtest/nav/test_move_base_core.cpp
-    WORKING_DIRECTORY ${PROJECT_SOURCE_DIR})
-  if(TARGET test_nav_core)
-    target_compile_definitions(test_nav_core PRIVATE MARL_MRTA_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
-    target_link_libraries(test_nav_core ${PROJECT_NAME}_nav_core ${MARL_MRTA_GTEST_MAIN})
-  endif()
-endif()
+marl_mrta_add_gtest(test_nav_core nav
+  TESTS costmap navfn dwa nav_params move_base_core robot_description travel
+  LIBRARIES ${PROJECT_NAME}_nav_core ${PROJECT_NAME}_travel)

@@ -7,9 +7,11 @@ add_library(${PROJECT_NAME}_sim_core
   src/sim/robot_model.cpp
   src/sim/scan_caster.cpp
   src/sim/sim_config.cpp
+  src/sim/stand_in_config.cpp
   src/sim/world.cpp
 )
-target_link_libraries(${PROJECT_NAME}_sim_core ${PROJECT_NAME}_map)
+# params: the parameter tree the simulator's configuration is read from (cmake/params.cmake).
+target_link_libraries(${PROJECT_NAME}_sim_core ${PROJECT_NAME}_map ${PROJECT_NAME}_params ${YAML_CPP_LIBRARIES})
 
 # The ROS shell around the core, shared by the node and the nodelet (cmake/nodelets.cmake).
 add_library(${PROJECT_NAME}_sim_ros
@@ -17,6 +19,7 @@ add_library(${PROJECT_NAME}_sim_ros
   src/sim/sim_params_ros.cpp
   src/sim/simulator_ros.cpp
   src/sim/simulator_services_ros.cpp
+  src/sim/stand_in_ros.cpp
 )
 add_dependencies(${PROJECT_NAME}_sim_ros ${PROJECT_NAME}_generate_messages_cpp ${catkin_EXPORTED_TARGETS})
 # nav_ros: the ground-truth localisation it shares with fake_localization (publish_localization).
@@ -38,17 +41,7 @@ install(TARGETS bench_sim_core bench_sim_sink ${PROJECT_NAME}_sim_core ${PROJECT
   RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION}
 )
 
-if(CATKIN_ENABLE_TESTING)
-  # Core only: no roscore, no ROS libraries.
-  catkin_add_gtest(test_sim_core
-    test/gtest/sim/test_arenas.cpp
-    test/gtest/sim/test_collisions.cpp
-    test/gtest/sim/test_drive.cpp
-    test/gtest/sim/test_lidar.cpp
-    test/gtest/sim/test_lockstep_gate.cpp
-    test/gtest/sim/test_sim_config.cpp
-  )
-  if(TARGET test_sim_core)
-    target_link_libraries(test_sim_core ${PROJECT_NAME}_sim_core ${MARL_MRTA_GTEST_MAIN})
-  endif()
-endif()
+# Core only: no roscore, no ROS libraries.
+marl_mrta_add_gtest(test_sim_core sim
+  TESTS arenas collisions drive lidar lockstep_gate sim_config
+  LIBRARIES ${PROJECT_NAME}_sim_core)

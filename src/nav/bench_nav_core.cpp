@@ -1,5 +1,7 @@
 // Speed of the navigation cores on a map (no ROS): planning time per plan on the global
-// costmap, local costmap update with a simulated 360-beam scan, DWA controller cycle.
+// costmap, local costmap update with a simulated 360-beam scan, DWA controller cycle, and the
+// travel binding's paths between every pair of 10 and 48 poses (libmarl_mrta_travel, as the
+// embedded executor calls it, against one plan per pair).
 //   bench_nav_core <config_dir> <map.yaml> [<map.yaml> ...]   -> JSON on stdout
 #include <algorithm>
 #include <chrono>
@@ -12,6 +14,7 @@
 #include "marl_mrta/nav/move_base_core.h"
 #include "marl_mrta/nav/cpu_clock.h"
 #include "marl_mrta/nav/static_layer.h"
+#include "marl_mrta/nav/travel_c_api.h"
 
 using namespace marl_mrta;
 using namespace marl_mrta::nav;
@@ -66,18 +69,52 @@ LaserScanData castScan(const map::OccupancyMap& m, const Pose2D& sensor) {
 }
 
 MoveBaseConfig loadConfig(const std::string& dir) {
-  YAML::Node tree(YAML::NodeType::Map);
-  loadYamlFileInto(tree, dir + "/costmap_common_params_burger.yaml", "global_costmap");
-  loadYamlFileInto(tree, dir + "/costmap_common_params_burger.yaml", "local_costmap");
-  loadYamlFileInto(tree, dir + "/local_costmap_params.yaml", "");
-  loadYamlFileInto(tree, dir + "/global_costmap_params.yaml", "");
-  loadYamlFileInto(tree, dir + "/move_base_params.yaml", "");
-  loadYamlFileInto(tree, dir + "/dwa_local_planner_params_burger.yaml", "");
-  loadYamlFileInto(tree, dir + "/navfn_params.yaml", "");
-  return readMoveBaseConfig(ParamNode(tree, "move_base"));
+  return readMoveBaseConfig(ParamNode(loadMoveBaseParams(dir), "move_base"));
 }
 
-std::string benchMap(const MoveBaseConfig& config, const std::string& map_file) {
+// marl_mrta_travel_plan for `count` of `free_poses` reachable from one another (best of a few
+// runs, each building the costmap too), and the same paths planned one pair at a time on `core`.
+std::string benchTravel(MoveBaseCore& core, const std::string& config_dir, const std::string& map_file,
+                        const std::vector<Pose2D>& free_poses, size_t count, std::mt19937& rng) {
+  std::uniform_int_distribution<size_t> pick(0, free_poses.size() - 1);
+  std::vector<Pose2D> poses;
+  for (int tries = 1; poses.size() < count && tries < 100000; ++tries) {
+    if (poses.size() == 1 && tries % 100 == 0) poses.clear();  // the first one is walled in: another
+    const Pose2D candidate = free_poses[pick(rng)];
+    const bool reachable = poses.empty() || (core.makePlan(poses.front(), candidate, 0.0).ok() &&
+                                             core.makePlan(candidate, poses.front(), 0.0).ok());
+    if (reachable) poses.push_back(candidate);
+  }
+  std::vector<double> flat;
+  for (const Pose2D& p : poses) flat.insert(flat.end(), {p.x, p.y, p.yaw});
+  const int n = static_cast<int>(poses.size());
+  Stats together, pairwise;
+  char error[256] = "";
+  for (int run = 0; run < 3; ++run) {
+    int failed_node = -1;
+    const auto t0 = Clock::now();
+    MarlMrtaTravel* travel =
+        marl_mrta_travel_plan(map_file.c_str(), config_dir.c_str(), n, flat.data(), error, sizeof error, &failed_node);
+    together.samples.push_back(msSince(t0));
+    if (!travel) {
+      std::cerr << "bench_nav_core: travel: " << error << "\n";
+      std::exit(1);
+    }
+    marl_mrta_travel_free(travel);
+  }
+  const auto t0 = Clock::now();
+  for (int a = 0; a < n; ++a) {
+    for (int b = 0; b < n; ++b) {
+      if (a != b) core.planner().makePlan(core.globalCostmap().costmap(), poses[a], poses[b]);
+    }
+  }
+  pairwise.samples.push_back(msSince(t0));
+  char head[80];
+  std::snprintf(head, sizeof head, "{\"poses\": %d, \"paths\": %d, ", n, n * (n - 1));
+  return std::string(head) + "\"library\": " + together.json() + ", \"one_plan_per_pair\": " + pairwise.json() + "}";
+}
+
+std::string benchMap(const MoveBaseConfig& config, const std::string& config_dir, const std::string& map_file) {
   const map::OccupancyMap m = map::loadMap(map_file);
   MoveBaseCore core(config);
   core.globalCostmap().layersOfType<StaticLayer>().front()->setMap(m);
@@ -145,10 +182,23 @@ std::string benchMap(const MoveBaseConfig& config, const std::string& map_file) 
   std::snprintf(head, sizeof head,
                 "{\"map\": \"%s\", \"cells\": [%u, %u], \"plans_ok\": %d, \"plans\": %d, \"mean_expansions\": %.0f, ",
                 map_file.c_str(), costs.sizeX(), costs.sizeY(), planned, kPlans, expansions / kPlans);
+  // The travel binding on a costmap without the scans above (as it builds its own).
+  MoveBaseCore fresh(config);
+  fresh.globalCostmap().layersOfType<StaticLayer>().front()->setMap(m);
+  fresh.globalCostmap().updateMap(Pose2D{});
+  std::vector<Pose2D> inner_poses;
+  for (const Pose2D& pose : free_poses) {
+    unsigned mx, my;
+    costs.worldToMap(pose.x, pose.y, mx, my);
+    if (mx > 0 && my > 0 && mx + 1 < costs.sizeX() && my + 1 < costs.sizeY()) inner_poses.push_back(pose);
+  }
+  const std::string travel_10 = benchTravel(fresh, config_dir, map_file, inner_poses, 10, rng);
+  const std::string travel_48 = benchTravel(fresh, config_dir, map_file, inner_poses, 48, rng);
   return std::string(head) + "\"planning\": " + planning.json() + ", \"global_costmap_full_update\": " +
          global_update.json() + ", \"global_costmap_update_with_scan\": " + global_incremental.json() +
          ", \"local_costmap_update\": " + local_update.json() +
-         ", \"dwa_cycle\": " + control.json() + "}";
+         ", \"dwa_cycle\": " + control.json() + ", \"travel_10_poses\": " + travel_10 +
+         ", \"travel_48_poses\": " + travel_48 + "}";
 }
 
 }  // namespace
@@ -161,7 +211,7 @@ int main(int argc, char** argv) {
   try {
     const MoveBaseConfig config = loadConfig(argv[1]);
     std::cout << "[";
-    for (int i = 2; i < argc; ++i) std::cout << (i > 2 ? ",\n " : "") << benchMap(config, argv[i]);
+    for (int i = 2; i < argc; ++i) std::cout << (i > 2 ? ",\n " : "") << benchMap(config, argv[1], argv[i]);
     std::cout << "]\n";
   } catch (const std::exception& error) {
     std::cerr << "bench_nav_core: " << error.what() << "\n";

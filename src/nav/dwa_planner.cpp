@@ -48,6 +48,24 @@ bool isBlocking(uint8_t cost) {
   return cost == kLethalObstacle || cost == kInscribedInflated || cost == kNoInformation;
 }
 
+// Motion one way along an axis (stock oscillation flags): `same` is this direction's flag,
+// `opposite` the other direction's. After motion the other way, the axis is restricted to this
+// direction (`only`); true when that happened.
+bool moveAlong(bool& same, bool& opposite, bool& only) {
+  const bool reversed = opposite;
+  if (reversed) only = true;
+  opposite = false;
+  same = true;
+  return reversed;
+}
+
+// One axis's flags for the chosen velocity `v` along it; true when a restriction was set.
+bool updateAxisFlags(double v, bool& pos, bool& neg, bool& pos_only, bool& neg_only) {
+  if (v < 0.0) return moveAlong(neg, pos, neg_only);
+  if (v > 0.0) return moveAlong(pos, neg, pos_only);
+  return false;
+}
+
 }  // namespace
 
 // ----------------------------------------------------------------------------- MapGrid
@@ -407,57 +425,11 @@ double DwaPlanner::scoreTrajectory(const Trajectory& trajectory, double best_cos
 void DwaPlanner::updateOscillationFlags(const Pose2D& pose, const Trajectory& chosen) {
   if (chosen.cost < 0.0) return;
   OscillationFlags& f = oscillation_;
-  bool flag_set = false;
-  if (chosen.xv < 0.0) {
-    if (f.forward_pos) {
-      f.forward_neg_only = true;
-      flag_set = true;
-    }
-    f.forward_pos = false;
-    f.forward_neg = true;
-  }
-  if (chosen.xv > 0.0) {
-    if (f.forward_neg) {
-      f.forward_pos_only = true;
-      flag_set = true;
-    }
-    f.forward_neg = false;
-    f.forward_pos = true;
-  }
+  bool flag_set = updateAxisFlags(chosen.xv, f.forward_pos, f.forward_neg, f.forward_pos_only, f.forward_neg_only);
   // Strafing and rotation flags only count when (almost) not translating.
   if (std::fabs(chosen.xv) <= config_.limits.min_vel_trans) {
-    if (chosen.yv < 0.0) {
-      if (f.strafe_pos) {
-        f.strafe_neg_only = true;
-        flag_set = true;
-      }
-      f.strafe_pos = false;
-      f.strafe_neg = true;
-    }
-    if (chosen.yv > 0.0) {
-      if (f.strafe_neg) {
-        f.strafe_pos_only = true;
-        flag_set = true;
-      }
-      f.strafe_neg = false;
-      f.strafe_pos = true;
-    }
-    if (chosen.thetav < 0.0) {
-      if (f.rot_pos) {
-        f.rot_neg_only = true;
-        flag_set = true;
-      }
-      f.rot_pos = false;
-      f.rot_neg = true;
-    }
-    if (chosen.thetav > 0.0) {
-      if (f.rot_neg) {
-        f.rot_pos_only = true;
-        flag_set = true;
-      }
-      f.rot_neg = false;
-      f.rot_pos = true;
-    }
+    flag_set |= updateAxisFlags(chosen.yv, f.strafe_pos, f.strafe_neg, f.strafe_pos_only, f.strafe_neg_only);
+    flag_set |= updateAxisFlags(chosen.thetav, f.rot_pos, f.rot_neg, f.rot_pos_only, f.rot_neg_only);
   }
   if (flag_set) prev_stationary_pose_ = pose;
   if (f.restricted()) {

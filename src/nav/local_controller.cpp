@@ -5,26 +5,37 @@
 namespace marl_mrta {
 namespace nav {
 
-double normalizeAngle(double angle) {
-  angle = std::fmod(angle + M_PI, 2.0 * M_PI);
-  if (angle < 0.0) angle += 2.0 * M_PI;
-  return angle - M_PI;
-}
-
 Pose2D Transform2D::apply(const Pose2D& p) const {
   const double c = std::cos(yaw), s = std::sin(yaw);
-  return {x + c * p.x - s * p.y, y + s * p.x + c * p.y, normalizeAngle(p.yaw + yaw)};
+  return {x + c * p.x - s * p.y, y + s * p.x + c * p.y, normalizeAngleByFmod(p.yaw + yaw)};
 }
 
 Transform2D Transform2D::between(const Pose2D& a, const Pose2D& b) {
   // T·a = b  =>  yaw = b.yaw − a.yaw, t = b − R(yaw)·a.
   Transform2D t;
-  t.yaw = normalizeAngle(b.yaw - a.yaw);
+  t.yaw = normalizeAngleByFmod(b.yaw - a.yaw);
   const double c = std::cos(t.yaw), s = std::sin(t.yaw);
   t.x = b.x - (c * a.x - s * a.y);
   t.y = b.y - (s * a.x + c * a.y);
   return t;
 }
+
+namespace {
+
+// `command` when the planner finds it collision-free, else no command and `collision_message`.
+ControlResult checkedCommand(DwaPlanner& planner, const Pose2D& pose, const Velocity2D& velocity,
+                             const Velocity2D& command, const char* collision_message) {
+  ControlResult result;
+  if (planner.checkTrajectory(pose, velocity, command)) {
+    result.ok = true;
+    result.command = command;
+  } else {
+    result.message = collision_message;
+  }
+  return result;
+}
+
+}  // namespace
 
 LocalController::LocalController(const DwaConfig& config) : planner_(config) {}
 
@@ -90,7 +101,7 @@ bool LocalController::isGoalReached(const Pose2D& pose, const Velocity2D& veloci
   if (!isPositionReached(pose, global_to_local)) return false;
   if (config().latch_xy_goal_tolerance) xy_tolerance_latch_ = true;
   const Pose2D goal = global_to_local.apply(global_plan_.back());
-  return std::fabs(normalizeAngle(goal.yaw - pose.yaw)) <= config().limits.yaw_goal_tolerance && stopped(velocity);
+  return std::fabs(normalizeAngleByFmod(goal.yaw - pose.yaw)) <= config().limits.yaw_goal_tolerance && stopped(velocity);
 }
 
 ControlResult LocalController::stopAndRotate(const Pose2D& pose, const Velocity2D& velocity, const Pose2D& goal) {
@@ -98,7 +109,7 @@ ControlResult LocalController::stopAndRotate(const Pose2D& pose, const Velocity2
   const double dt = config().sim_period;
   ControlResult result;
   if (config().latch_xy_goal_tolerance) xy_tolerance_latch_ = true;
-  const double angle = normalizeAngle(goal.yaw - pose.yaw);
+  const double angle = normalizeAngleByFmod(goal.yaw - pose.yaw);
   if (std::fabs(angle) <= l.yaw_goal_tolerance) {
     result.ok = true;  // zero command: wait until stopped
     rotating_to_goal_ = false;
@@ -110,13 +121,7 @@ ControlResult LocalController::stopAndRotate(const Pose2D& pose, const Velocity2
     const Velocity2D brake{sign(velocity.x) * std::max(0.0, std::fabs(velocity.x) - l.acc_lim_x * dt),
                            sign(velocity.y) * std::max(0.0, std::fabs(velocity.y) - l.acc_lim_y * dt),
                            sign(velocity.theta) * std::max(0.0, std::fabs(velocity.theta) - l.acc_lim_theta * dt)};
-    if (!planner_.checkTrajectory(pose, velocity, brake)) {
-      result.message = "stopping command in collision";
-      return result;
-    }
-    result.ok = true;
-    result.command = brake;
-    return result;
+    return checkedCommand(planner_, pose, velocity, brake, "stopping command in collision");
   }
   rotating_to_goal_ = true;
   // Turn towards the goal yaw: within the acceleration window, slow enough to stop at the
@@ -129,13 +134,7 @@ ControlResult LocalController::stopAndRotate(const Pose2D& pose, const Velocity2
   vth = std::min(l.max_vel_theta, std::max(l.min_vel_theta, vth));
   if (angle < 0.0) vth = -vth;
   const Velocity2D turn{0.0, 0.0, vth};
-  if (!planner_.checkTrajectory(pose, velocity, turn)) {
-    result.message = "rotation towards the goal yaw in collision";
-    return result;
-  }
-  result.ok = true;
-  result.command = turn;
-  return result;
+  return checkedCommand(planner_, pose, velocity, turn, "rotation towards the goal yaw in collision");
 }
 
 ControlResult LocalController::computeVelocityCommands(const CostGrid& costmap, const Polygon& footprint,

@@ -100,10 +100,11 @@ DwaConfig readDwaConfig(const ParamNode& ns, double outer_controller_frequency, 
   l.acc_lim_x = ns.getDouble("acc_lim_x", 2.5, 0.0);
   l.acc_lim_y = ns.getDouble("acc_lim_y", 2.5, 0.0);
   l.acc_lim_theta = ns.getDouble("acc_lim_theta", 3.2, 0.0);
+  l.prune_plan = ns.getBool("prune_plan", true);
+  // Goal reached: within both tolerances and stopped (these and theta_stopped_vel above).
   l.trans_stopped_vel = ns.getDouble("trans_stopped_vel", 0.1, 0.0);
   l.xy_goal_tolerance = ns.getDouble("xy_goal_tolerance", 0.1, 0.0);
   l.yaw_goal_tolerance = ns.getDouble("yaw_goal_tolerance", 0.1, 0.0);
-  l.prune_plan = ns.getBool("prune_plan", true);
   if (l.min_vel_x > l.max_vel_x) throw ParamError(ns.pathOf("min_vel_x"), "is greater than max_vel_x");
   if (l.min_vel_y > l.max_vel_y) throw ParamError(ns.pathOf("min_vel_y"), "is greater than max_vel_y");
   config.sim_time = ns.getDouble("sim_time", 1.7, 1e-3);
@@ -133,6 +134,26 @@ DwaConfig readDwaConfig(const ParamNode& ns, double outer_controller_frequency, 
   return config;
 }
 
+const std::vector<ParamFileLoad>& moveBaseParamFiles() {
+  static const std::vector<ParamFileLoad> files = {
+      {"costmap_common_params_burger.yaml", "global_costmap"},
+      {"costmap_common_params_burger.yaml", "local_costmap"},
+      {"local_costmap_params.yaml", ""},
+      {"global_costmap_params.yaml", ""},
+      {"move_base_params.yaml", ""},
+      {"dwa_local_planner_params_burger.yaml", ""},
+      {"navfn_params.yaml", ""},
+  };
+  return files;
+}
+
+YAML::Node loadMoveBaseParams(const std::string& config_dir) {
+  const std::string dir = config_dir.empty() || config_dir.back() == '/' ? config_dir : config_dir + "/";
+  YAML::Node tree(YAML::NodeType::Map);
+  for (const ParamFileLoad& load : moveBaseParamFiles()) loadYamlFileInto(tree, dir + load.file, load.ns);
+  return tree;
+}
+
 MoveBaseConfig readMoveBaseConfig(const ParamNode& ns) {
   MoveBaseConfig config;
   config.base_global_planner = ns.getString("base_global_planner", "navfn/NavfnROS");
@@ -153,12 +174,13 @@ MoveBaseConfig readMoveBaseConfig(const ParamNode& ns) {
   config.max_planning_retries = ns.getInt("max_planning_retries", -1, -1);
   config.oscillation_timeout = ns.getDouble("oscillation_timeout", 0.0, 0.0);
   config.oscillation_distance = ns.getDouble("oscillation_distance", 0.5, 0.0);
+  // The make_plan service's, then the recovery behaviours' (stock move_base's order).
+  config.make_plan_clear_costmap = ns.getBool("make_plan_clear_costmap", true);
+  config.make_plan_add_unreachable_goal = ns.getBool("make_plan_add_unreachable_goal", true);
   config.conservative_reset_dist = ns.getDouble("conservative_reset_dist", 3.0, 0.0);
   config.shutdown_costmaps = ns.getBool("shutdown_costmaps", false);
   config.clearing_rotation_allowed = ns.getBool("clearing_rotation_allowed", true);
   config.recovery_behavior_enabled = ns.getBool("recovery_behavior_enabled", true);
-  config.make_plan_clear_costmap = ns.getBool("make_plan_clear_costmap", true);
-  config.make_plan_add_unreachable_goal = ns.getBool("make_plan_add_unreachable_goal", true);
   ns.accept("restore_defaults");
 
   config.navfn = readNavfnConfig(ns.child("NavfnROS"));

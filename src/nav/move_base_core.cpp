@@ -56,11 +56,11 @@ class RotateRecovery : public RecoveryBehavior {
     double dist_left;
     if (!got_180_) {
       // Half a turn plus the way to the half-turn point, until that point is passed.
-      const double to_180 = std::fabs(normalizeAngle(start_angle_ + M_PI - current));
+      const double to_180 = std::fabs(normalizeAngleByFmod(start_angle_ + M_PI - current));
       dist_left = M_PI + to_180;
       if (to_180 < config_.yaw_tolerance) got_180_ = true;
     } else {
-      dist_left = std::fabs(normalizeAngle(start_angle_ - current));
+      dist_left = std::fabs(normalizeAngleByFmod(start_angle_ - current));
       if (dist_left <= config_.yaw_tolerance) return true;
     }
     for (double sim_angle = 0.0; sim_angle < dist_left; sim_angle += config_.sim_granularity) {

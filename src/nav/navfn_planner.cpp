@@ -78,6 +78,7 @@ void NavfnPlanner::setupCosts(const CostGrid& costmap, unsigned start_index) {
   potential_.assign(ns_, kPotentialHigh);
   grad_x_.assign(ns_, 0.0f);
   grad_y_.assign(ns_, 0.0f);
+  gradients_cached_.clear();
   pending_.assign(ns_, 0);
 }
 
@@ -119,7 +120,7 @@ void NavfnPlanner::updateCell(unsigned n) {
   if (d > pot + de) push(n + nx_);
 }
 
-void NavfnPlanner::propagate(unsigned source, int stop_at) {
+void NavfnPlanner::startWave(unsigned source) {
   current_.clear();
   next_.clear();
   overflow_.clear();
@@ -131,9 +132,17 @@ void NavfnPlanner::propagate(unsigned source, int stop_at) {
       pending_[m] = 1;
     }
   }
-  const size_t cycles = std::max<size_t>(ns_ / 20, nx_ + ny_);
-  for (size_t cycle = 0; cycle < cycles; ++cycle) {
-    if (current_.empty() && next_.empty()) break;
+  wave_cycles_left_ = std::max<size_t>(ns_ / 20, nx_ + ny_);
+}
+
+bool NavfnPlanner::spreadWave(const std::vector<unsigned>& stop_cells) {
+  bool reached = false;
+  size_t cycle = 0;
+  for (; cycle < wave_cycles_left_ && !reached; ++cycle) {
+    if (current_.empty() && next_.empty()) {
+      cycle = wave_cycles_left_;
+      break;
+    }
     for (unsigned n : current_) pending_[n] = 0;
     for (unsigned n : current_) updateCell(n);
     current_.swap(next_);
@@ -143,8 +152,10 @@ void NavfnPlanner::propagate(unsigned source, int stop_at) {
       current_.swap(overflow_);
       overflow_.clear();
     }
-    if (stop_at >= 0 && potential_[stop_at] < kPotentialHigh) break;
+    for (unsigned cell : stop_cells) reached = reached || potential_[cell] < kPotentialHigh;
   }
+  wave_cycles_left_ -= cycle;
+  return reached;
 }
 
 float NavfnPlanner::gradientAt(unsigned n) {
@@ -167,12 +178,17 @@ float NavfnPlanner::gradientAt(unsigned n) {
   if (norm > 0.0f) {
     grad_x_[n] = dx / norm;
     grad_y_[n] = dy / norm;
+    gradients_cached_.push_back(n);
   }
   return norm;
 }
 
 bool NavfnPlanner::tracePath(unsigned from, unsigned to, std::vector<float>& path_x, std::vector<float>& path_y) {
   constexpr float kPathStep = 0.5f;  // [cells]
+  // Gradients cached by an earlier trace belong to an earlier potential (makePlans traces while
+  // the wave goes on).
+  for (unsigned n : gradients_cached_) grad_x_[n] = grad_y_[n] = 0.0f;
+  gradients_cached_.clear();
   unsigned stc = from;
   float dx = 0.0f, dy = 0.0f;
   const size_t max_steps = std::max<size_t>(ns_ / 2, 4 * nx_);
@@ -242,27 +258,76 @@ PlanResult NavfnPlanner::makePlan(const CostGrid& costmap, const Pose2D& start, 
 
 PlanResult NavfnPlanner::makePlan(const CostGrid& costmap, const Pose2D& start, const Pose2D& goal,
                                   double tolerance) {
-  PlanResult result;
+  return std::move(makePlans(costmap, start, {goal}, tolerance).front());
+}
+
+std::vector<PlanResult> NavfnPlanner::makePlans(const CostGrid& costmap, const Pose2D& start,
+                                                const std::vector<Pose2D>& goals) {
+  return makePlans(costmap, start, goals, config_.default_tolerance);
+}
+
+std::vector<PlanResult> NavfnPlanner::makePlans(const CostGrid& costmap, const Pose2D& start,
+                                                const std::vector<Pose2D>& goals, double tolerance) {
+  std::vector<PlanResult> results(goals.size());
   expansions_ = 0;
   unsigned sx, sy;
   if (costmap.sizeX() < 3 || costmap.sizeY() < 3 || !costmap.worldToMap(start.x, start.y, sx, sy)) {
-    result.status = PlanResult::Status::kStartOutsideMap;
-    result.message = "the robot's position " + formatPoint(start) + " is off the global costmap";
-    return result;
+    for (PlanResult& result : results) {
+      result.status = PlanResult::Status::kStartOutsideMap;
+      result.message = "the robot's position " + formatPoint(start) + " is off the global costmap";
+    }
+    return results;
   }
-  unsigned gx, gy;
-  const bool goal_inside = costmap.worldToMap(goal.x, goal.y, gx, gy);
-  if (!goal_inside && tolerance <= 0.0) {
-    result.status = PlanResult::Status::kGoalOutsideMap;
-    result.message = "the goal " + formatPoint(goal) + " is off the global costmap";
-    return result;
+  // The wave stops once a goal is reached, unless a tolerance asks for cells around it: the
+  // cell whose potential ends the wave for each goal still to plan, -1 for the whole wave.
+  struct Waiting {
+    size_t goal;
+    int stop_at;
+  };
+  std::vector<Waiting> waiting;
+  for (size_t i = 0; i < goals.size(); ++i) {
+    unsigned gx, gy;
+    const bool goal_inside = costmap.worldToMap(goals[i].x, goals[i].y, gx, gy);
+    if (!goal_inside && tolerance <= 0.0) {
+      results[i].status = PlanResult::Status::kGoalOutsideMap;
+      results[i].message = "the goal " + formatPoint(goals[i]) + " is off the global costmap";
+      continue;
+    }
+    waiting.push_back({i, (goal_inside && tolerance <= 0.0) ? static_cast<int>(costmap.index(gx, gy)) : -1});
   }
+  if (waiting.empty()) return results;
   const unsigned start_index = costmap.index(sx, sy);
   setupCosts(costmap, start_index);
-  // The wave stops once the goal is reached, unless a tolerance asks for cells around it.
-  const int stop_at = (goal_inside && tolerance <= 0.0) ? static_cast<int>(costmap.index(gx, gy)) : -1;
-  propagate(start_index, stop_at);
+  startWave(start_index);
+  // Spread until a goal's cell is reached and trace its path then, as makePlan would; a goal
+  // that needs the whole wave waits until the wave is over.
+  std::vector<unsigned> stop_cells;
+  bool wave_on = true;
+  while (wave_on && !waiting.empty()) {
+    stop_cells.clear();
+    for (const Waiting& w : waiting) {
+      if (w.stop_at >= 0) stop_cells.push_back(static_cast<unsigned>(w.stop_at));
+    }
+    wave_on = spreadWave(stop_cells);
+    for (size_t k = 0; wave_on && k < waiting.size();) {
+      const Waiting& w = waiting[k];
+      if (w.stop_at >= 0 && potential_[w.stop_at] < kPotentialHigh) {
+        results[w.goal] = finishPlan(costmap, start, start_index, goals[w.goal], tolerance);
+        waiting.erase(waiting.begin() + k);
+      } else {
+        ++k;
+      }
+    }
+  }
+  for (const Waiting& w : waiting) results[w.goal] = finishPlan(costmap, start, start_index, goals[w.goal], tolerance);
+  return results;
+}
 
+PlanResult NavfnPlanner::finishPlan(const CostGrid& costmap, const Pose2D& start, unsigned start_index,
+                                    const Pose2D& goal, double tolerance) {
+  PlanResult result;
+  unsigned gx, gy;
+  const bool goal_inside = costmap.worldToMap(goal.x, goal.y, gx, gy);
   // The reachable point closest to the goal within the tolerance square (navfn's search).
   const double res = costmap.resolution();
   bool found = false;

@@ -36,14 +36,14 @@ SimulatorRos::SimulatorRos(ros::NodeHandle& nh, ros::NodeHandle& private_nh)
   WorldConfig world_config;
   try {
     world_config = makeWorldConfig(config_);
-  } catch (const ConfigError& e) {
-    throw ConfigError(prefix + e.field(), e.problem());
+  } catch (const nav::ParamError& e) {
+    throw nav::ParamError(prefix + e.where(), e.problem());
   }
   const map::OccupancyMap map = map::loadMap(config_.map_file);
   try {
     world_ = std::make_unique<World>(map, world_config);
-  } catch (const WorldError& e) {
-    throw ConfigError(prefix + e.field(), e.problem());
+  } catch (const nav::ParamError& e) {
+    throw nav::ParamError(prefix + e.where(), e.problem());
   }
   advertise(nh, private_nh);
   pacer_ = std::make_unique<RealTimePacer>(config_.physics_rate, config_.rtf, kMaxPacingLag);
@@ -164,10 +164,14 @@ void SimulatorRos::publishState(const StepReport& report, bool initial) {
       publishShared(io.odom_pub, io.msgs.odom);
       publishShared(io.ground_truth_pub, io.msgs.ground_truth);
       fillTransform(io.msgs.odom_tf, now, state.odom_pose);
-      tf_message_.transforms[g] = io.msgs.odom_tf;
+      // Every map -> odom before any odom -> base_footprint: a tf listener inserts a message's
+      // transforms one at a time, and stock costmap_2d and DWA look up odom -> base at its latest
+      // stamp, then map -> odom at that stamp; between two inserts the second must not be missing.
+      const size_t odom_index = config_.publish_localization ? robots_.size() + g : g;
+      tf_message_.transforms[odom_index] = io.msgs.odom_tf;
       if (config_.publish_localization) {
         fillLocalization(io.msgs);
-        tf_message_.transforms[robots_.size() + g] = io.msgs.map_odom_tf;
+        tf_message_.transforms[g] = io.msgs.map_odom_tf;
       }
     }
     publishShared(tf_pub_, tf_message_);  // one message for every robot

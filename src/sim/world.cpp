@@ -29,7 +29,7 @@ void requirePositive(double value, const char* field) {
   if (!(value > 0.0) || !std::isfinite(value)) {
     std::ostringstream out;
     out << "must be a positive number, got " << value;
-    throw WorldError(field, out.str());
+    throw nav::ParamError(field, out.str());
   }
 }
 
@@ -37,14 +37,14 @@ void requireRange(double value, double low, double high, const char* field) {
   if (!(value >= low && value <= high)) {
     std::ostringstream out;
     out << "must be in [" << low << ", " << high << "], got " << value;
-    throw WorldError(field, out.str());
+    throw nav::ParamError(field, out.str());
   }
 }
 
 // The configuration itself, once checked (so that the members built from it are sound).
 const WorldConfig& validated(const WorldConfig& config) {
-  if (config.arenas < 1) throw WorldError("arenas", "must be at least 1, got " + std::to_string(config.arenas));
-  if (config.start_poses.empty()) throw WorldError("start_poses", "no robots: give at least one start pose");
+  if (config.arenas < 1) throw nav::ParamError("arenas", "must be at least 1, got " + std::to_string(config.arenas));
+  if (config.start_poses.empty()) throw nav::ParamError("start_poses", "no robots: give at least one start pose");
   requirePositive(config.physics_rate, "physics_rate");
   requireRange(config.scan_rate, 0.0, config.physics_rate, "scan_rate");
   requirePositive(config.odom_rate, "odom_rate");
@@ -56,7 +56,7 @@ const WorldConfig& validated(const WorldConfig& config) {
   requirePositive(robot.limits.max_angular_velocity, "max_angular_velocity");
   requirePositive(robot.limits.max_linear_acceleration, "max_linear_acceleration");
   requirePositive(robot.limits.max_angular_acceleration, "max_angular_acceleration");
-  if (robot.lidar.beams < 1) throw WorldError("lidar_beams", "must be at least 1");
+  if (robot.lidar.beams < 1) throw nav::ParamError("lidar_beams", "must be at least 1");
   requirePositive(robot.lidar.range_max, "lidar_range_max");
   requireRange(robot.lidar.range_min, 0.0, robot.lidar.range_max, "lidar_range_min");
   const NoiseModel& noise = config.noise;
@@ -100,7 +100,7 @@ World::World(const map::OccupancyMap& map, const WorldConfig& config)
   for (int i = 0; i < robots_per_arena_; ++i) {
     const std::string problem = placementProblem(config_.start_poses[i], config_.start_poses, i);
     if (!problem.empty()) {
-      throw WorldError("start_poses[" + std::to_string(i) + "]",
+      throw nav::ParamError("start_poses[" + std::to_string(i) + "]",
                        problem + (map.yaml_path.empty() ? "" : " of " + map.yaml_path));
     }
   }
@@ -284,20 +284,17 @@ void World::addContact(int global_index, int party, const Pose2D& pose) {
   const double distance = std::max(std::hypot(other_pose.x - pose.x, other_pose.y - pose.y), 1e-12);
   event.contact = {pose.x + (other_pose.x - pose.x) * radius / distance,
                    pose.y + (other_pose.y - pose.y) * radius / distance};
-  auto& contacts = robot.robot_contacts;
-  if (std::find(contacts.begin(), contacts.end(), party) == contacts.end()) {
-    contacts.push_back(party);
-    event.robot = index;
-    event.other_robot = party;
+  // Each robot records the contact once (until it is released), as an event of its own.
+  auto record = [&](Robot& self, int self_index, int other_index) {
+    auto& contacts = self.robot_contacts;
+    if (std::find(contacts.begin(), contacts.end(), other_index) != contacts.end()) return;
+    contacts.push_back(other_index);
+    event.robot = self_index;
+    event.other_robot = other_index;
     report_.collisions.push_back(event);
-  }
-  auto& other_contacts = other.robot_contacts;
-  if (std::find(other_contacts.begin(), other_contacts.end(), index) == other_contacts.end()) {
-    other_contacts.push_back(index);
-    event.robot = party;
-    event.other_robot = index;
-    report_.collisions.push_back(event);
-  }
+  };
+  record(robot, index, party);
+  record(other, party, index);
 }
 
 void World::releaseContacts(int global_index) {

@@ -4,20 +4,18 @@
 #include <string>
 #include <vector>
 
+#include "marl_mrta/geometry.h"
+
 namespace marl_mrta {
 namespace nav {
+
+using ::marl_mrta::Pose2D;
 
 struct Point2 {
   double x = 0.0;
   double y = 0.0;
 };
 using Polygon = std::vector<Point2>;
-
-struct Pose2D {
-  double x = 0.0;
-  double y = 0.0;
-  double yaw = 0.0;
-};
 
 // "[[x, y], [x, y], ...]" (the string form costmap_2d accepts); at least 3 points.
 // Throws std::invalid_argument with a one-line description of the problem.

@@ -14,6 +14,8 @@
 namespace marl_mrta {
 namespace nav {
 
+using ::marl_mrta::normalizeAngle;
+
 // A rigid 2D transform: p_target = rotate(yaw)·p_source + (x, y).
 struct Transform2D {
   double x = 0.0, y = 0.0, yaw = 0.0;
@@ -21,8 +23,6 @@ struct Transform2D {
   // The transform taking `from` poses to `to` poses of the same physical pose.
   static Transform2D between(const Pose2D& pose_in_source, const Pose2D& pose_in_target);
 };
-
-double normalizeAngle(double angle);
 
 struct ControlResult {
   bool ok = false;

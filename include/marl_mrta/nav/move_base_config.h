@@ -61,6 +61,18 @@ struct MoveBaseConfig {
   std::vector<std::string> renamed_parameters_used;
 };
 
+// One `rosparam load` of a parameter file into a namespace of move_base ("" = its own).
+struct ParamFileLoad {
+  std::string file;  // in the navigation configuration directory (config/nav/)
+  std::string ns;
+};
+// The files launch/include/robot_nav.launch loads into move_base, in its order (gtest
+// NavParams.RobotNavLaunchLoadsTheMoveBaseParamFiles keeps the two equal).
+const std::vector<ParamFileLoad>& moveBaseParamFiles();
+// The move_base namespace those files give, from `config_dir` (e.g. config/nav), as rosparam
+// loads them. Throws ParamError naming a file that cannot be read.
+YAML::Node loadMoveBaseParams(const std::string& config_dir);
+
 // Reads the move_base namespace. Throws ParamError (one line, naming the parameter).
 MoveBaseConfig readMoveBaseConfig(const ParamNode& move_base_ns);
 // DWAPlannerROS alone; `outer_controller_frequency` is move_base's (DWA searches upward for it).

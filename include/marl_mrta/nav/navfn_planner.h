@@ -58,6 +58,12 @@ class NavfnPlanner {
   // Plans with the configured default tolerance.
   PlanResult makePlan(const CostGrid& costmap, const Pose2D& start, const Pose2D& goal);
   PlanResult makePlan(const CostGrid& costmap, const Pose2D& start, const Pose2D& goal, double tolerance);
+  // The plans from `start` to each of `goals`, each exactly what makePlan(costmap, start, goal)
+  // returns, from one wavefront: the wave spreads from the start as for a single goal, and each
+  // goal's path is traced at the moment makePlan would have stopped the wave for that goal.
+  std::vector<PlanResult> makePlans(const CostGrid& costmap, const Pose2D& start, const std::vector<Pose2D>& goals);
+  std::vector<PlanResult> makePlans(const CostGrid& costmap, const Pose2D& start, const std::vector<Pose2D>& goals,
+                                    double tolerance);
 
   // Potential of the last plan, row-major over the costmap (kPotentialHigh = not reached).
   const std::vector<float>& potential() const { return potential_; }
@@ -66,8 +72,14 @@ class NavfnPlanner {
 
  private:
   void setupCosts(const CostGrid& costmap, unsigned start_index);
-  void propagate(unsigned source, int stop_at);
+  // The wavefront from `source`, spread by cycles; spreadWave runs cycles until one ends with a
+  // potential on one of `stop_cells` (true) or the wave is over (false), and can be resumed.
+  void startWave(unsigned source);
+  bool spreadWave(const std::vector<unsigned>& stop_cells);
   void updateCell(unsigned n);
+  // The tolerance search and the path down the potential as it stands now.
+  PlanResult finishPlan(const CostGrid& costmap, const Pose2D& start, unsigned start_index, const Pose2D& goal,
+                        double tolerance);
   bool tracePath(unsigned from, unsigned to, std::vector<float>& path_x, std::vector<float>& path_y);
   float gradientAt(unsigned n);
   double variationAt(unsigned mx, unsigned my, double resolution) const;
@@ -77,9 +89,11 @@ class NavfnPlanner {
   std::vector<uint8_t> cost_;
   std::vector<float> potential_;
   std::vector<float> grad_x_, grad_y_;
+  std::vector<unsigned> gradients_cached_;  // cells of grad_x_/grad_y_ set since the last trace began
   std::vector<char> pending_;
   std::vector<unsigned> current_, next_, overflow_;
   float threshold_ = 0.0f;
+  size_t wave_cycles_left_ = 0;
   size_t expansions_ = 0;
   uint64_t variation_draw_ = 0;  // 0 = no field drawn yet
 };

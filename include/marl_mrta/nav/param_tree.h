@@ -1,4 +1,4 @@
-// Typed, checked reading of a parameter tree (the move_base namespace as rosparam holds it),
+// Typed, checked reading of a parameter tree (a node's private namespace as rosparam holds it),
 // with a record of which keys were read so that unknown keys can be reported.
 //
 // The tree is a YAML::Node: tests build it from the YAML files as `rosparam load` would; the
@@ -11,23 +11,13 @@
 #include <limits>
 #include <memory>
 #include <set>
-#include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "marl_mrta/nav/param_error.h"
+
 namespace marl_mrta {
 namespace nav {
-
-class ParamError : public std::runtime_error {
- public:
-  ParamError(const std::string& where, const std::string& problem)
-      : std::runtime_error(where + ": " + problem), where_(where), problem_(problem) {}
-  const std::string& where() const { return where_; }
-  const std::string& problem() const { return problem_; }
-
- private:
-  std::string where_, problem_;
-};
 
 class ParamNode {
  public:

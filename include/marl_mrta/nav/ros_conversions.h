@@ -10,6 +10,7 @@
 #include <geometry_msgs/TransformStamped.h>
 #include <nav_msgs/OccupancyGrid.h>
 #include <nav_msgs/Path.h>
+#include <ros/node_handle.h>
 #include <ros/time.h>
 
 #include <string>
@@ -25,6 +26,9 @@ namespace ros_conversions {
 
 // A parameter subtree (ros::NodeHandle::getParam("~", value)) as the YAML tree the cores read.
 YAML::Node toYaml(const XmlRpc::XmlRpcValue& value);
+// Every parameter in the namespace of `nh` (a node's private one) as one YAML tree: an empty
+// mapping when none is set.
+YAML::Node parameterTree(const ros::NodeHandle& nh);
 
 double yawOf(const geometry_msgs::Quaternion& q);
 geometry_msgs::Quaternion quaternionFromYaw(double yaw);

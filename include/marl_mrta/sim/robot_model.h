@@ -1,9 +1,7 @@
-// What the simulator knows about a TurtleBot3 Burger: footprint, drive limits, LDS-01 lidar,
-// and the noise a real one shows (selectable profiles).
+// What the simulator knows about a TurtleBot3 Burger: collision circle, drive limits, LDS-01
+// lidar (the defaults are config/robot_burger.yaml's values), and the noise a real one shows
+// (the profiles of config/noise_profiles.yaml).
 #pragma once
-
-#include <string>
-#include <vector>
 
 namespace marl_mrta {
 namespace sim {
@@ -38,6 +36,9 @@ struct RobotSpec {
 };
 
 // Differences between a real robot and the ideal model. All zero / one in the ideal profile.
+// config/noise_profiles.yaml gives them as linear_speed_scale, command_latency [min, max],
+// pause_rate, pause_duration [min, max], lidar_range_stddev, lidar_dropout [min, max],
+// odom_translation_stddev, odom_rotation_stddev.
 struct NoiseModel {
   double linear_speed_scale = 1.0;     // achieved / commanded linear velocity
   double command_latency_min = 0.0;    // [s] delay before a command reaches the wheels,
@@ -51,12 +52,6 @@ struct NoiseModel {
   double odom_translation_stddev = 0.0;  // relative error of each step's distance
   double odom_rotation_stddev = 0.0;     // relative error of each step's rotation
 };
-
-// "ideal" or "measured_tb3" (the sim-to-real figures: 0.19 m/s achieved for 0.22 commanded,
-// 2-4 % lidar dropout, 40-70 ms latency, 3-6 pauses of 0.5-1.2 s per 120 s, odometry drift).
-// Throws std::invalid_argument for another name.
-NoiseModel noiseProfile(const std::string& name);
-std::vector<std::string> noiseProfileNames();
 
 }  // namespace sim
 }  // namespace marl_mrta

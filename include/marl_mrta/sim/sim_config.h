@@ -1,30 +1,20 @@
-// Everything the `simulator` node is configured with (config/sim.yaml + launch overrides),
-// and its checks. ROS-free: the node fills it from the parameter server, tests by hand.
+// Everything the `simulator` node is configured with (config/sim.yaml, config/robot_burger.yaml,
+// config/noise_profiles.yaml + launch overrides), and its checks. ROS-free: the node converts
+// its private namespace into a parameter tree, tests load the files as rosparam would.
 #pragma once
 
 #include <cstdint>
-#include <stdexcept>
+#include <map>
 #include <string>
 #include <vector>
 
+#include "marl_mrta/nav/param_tree.h"
 #include "marl_mrta/sim/geometry.h"
 #include "marl_mrta/sim/robot_model.h"
 #include "marl_mrta/sim/world.h"
 
 namespace marl_mrta {
 namespace sim {
-
-// A bad setting; what() is one line "<field>: <problem>".
-class ConfigError : public std::runtime_error {
- public:
-  ConfigError(const std::string& field, const std::string& problem)
-      : std::runtime_error(field + ": " + problem), field_(field), problem_(problem) {}
-  const std::string& field() const { return field_; }
-  const std::string& problem() const { return problem_; }
-
- private:
-  std::string field_, problem_;
-};
 
 struct SimConfig {
   std::string map_file;                 // map_server YAML
@@ -40,6 +30,10 @@ struct SimConfig {
   std::vector<std::string> lockstep_robots;  // empty: every robot
   double cmd_vel_timeout = 0.5;         // [s] watchdog; 0: off
   std::string noise_profile = "ideal";
+  // The profiles noise_profile may name (~noise_profiles). "ideal", every noise absent, is
+  // always among them: roslaunch sets no parameter for an empty mapping such as the file's
+  // `ideal: {}`.
+  std::map<std::string, NoiseModel> noise_profiles = {{"ideal", NoiseModel{}}};
   int seed = 0;
   bool scan_invalid_as_inf = false;
   // Also publish map -> <ns>/odom from ground truth, in the same /tf message as odom -> base
@@ -54,8 +48,20 @@ struct SimConfig {
 // The lowest physics rate accepted: the lidar and controllers (10-20 Hz) need at least this.
 constexpr double kMinPhysicsRate = 20.0;
 
+// Reads the simulator's parameters from its private namespace (`params.path()` names it in
+// messages, e.g. "/simulator"): every value typed, every key known; the noise profiles are
+// range-checked here, the rest by makeWorldConfig and World. Throws nav::ParamError naming the parameter
+// ("/simulator/rtf: expected a number, got 'fast'").
+SimConfig readSimConfig(const nav::ParamNode& params);
+
+// The profiles of a noise_profiles namespace (config/noise_profiles.yaml), by name; every key
+// of a profile is optional (absent: the ideal value). Throws nav::ParamError.
+std::map<std::string, NoiseModel> readNoiseProfiles(const nav::ParamNode& profiles);
+// The same from the file itself (tests, tools). Throws nav::ParamError naming the file.
+std::map<std::string, NoiseModel> loadNoiseProfiles(const std::string& yaml_file);
+
 // Checks what the world does not check itself and builds the world's configuration.
-// Throws ConfigError naming the setting (e.g. "noise_profile").
+// Throws nav::ParamError naming the setting (e.g. "noise_profile").
 WorldConfig makeWorldConfig(const SimConfig& config);
 
 // Namespaces of every robot, arena by arena (global index order).

@@ -1,5 +1,6 @@
-// Reads the simulator's private ROS parameters into a SimConfig: each typed, every key known
-// (a misspelt parameter is an error, not a silent default).
+// Reads the simulator's private ROS parameters into a SimConfig, through the parameter tree
+// navigation reads too: each typed, every key known (a misspelt parameter is an error, not a
+// silent default).
 #pragma once
 
 #include <ros/node_handle.h>
@@ -9,7 +10,7 @@
 namespace marl_mrta {
 namespace sim {
 
-// Throws ConfigError whose field is the full parameter name, e.g. "/simulator/robots".
+// Throws nav::ParamError whose where() is the full parameter name, e.g. "/simulator/robots".
 SimConfig readSimConfig(const ros::NodeHandle& private_nh);
 
 }  // namespace sim

@@ -29,8 +29,8 @@ namespace sim {
 
 class SimulatorRos {
  public:
-  // Reads and checks the parameters, loads the map, builds the world. Throws ConfigError,
-  // map::MapError or WorldError (one line each, naming the parameter or file). The loop serves
+  // Reads and checks the parameters, loads the map, builds the world. Throws nav::ParamError
+  // or map::MapError (one line each, naming the parameter or file). The loop serves
   // the callback queue of `nh` (the global one in the node, its own in the nodelet).
   SimulatorRos(ros::NodeHandle& nh, ros::NodeHandle& private_nh);
 

@@ -8,11 +8,11 @@
 #include <cstdint>
 #include <deque>
 #include <optional>
-#include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "marl_mrta/map/occupancy_map.h"
+#include "marl_mrta/nav/param_error.h"
 #include "marl_mrta/sim/geometry.h"
 #include "marl_mrta/sim/lidar.h"
 #include "marl_mrta/sim/obstacle_grid.h"
@@ -22,18 +22,6 @@
 
 namespace marl_mrta {
 namespace sim {
-
-// A bad world configuration: `field` names the setting (e.g. "start_poses[1]").
-class WorldError : public std::runtime_error {
- public:
-  WorldError(const std::string& field, const std::string& problem)
-      : std::runtime_error(field + ": " + problem), field_(field), problem_(problem) {}
-  const std::string& field() const { return field_; }
-  const std::string& problem() const { return problem_; }
-
- private:
-  std::string field_, problem_;
-};
 
 // Namespace of robot `index` of `arena`: tb3_i, or arena_k/tb3_i when there are several arenas.
 std::string robotNamespace(int arenas, int arena, int index);
@@ -77,7 +65,8 @@ struct StepReport {
 
 class World {
  public:
-  // Throws WorldError when the configuration or a start pose is unusable.
+  // Throws nav::ParamError naming the setting (e.g. "start_poses[1]") when the configuration or
+  // a start pose is unusable.
   World(const map::OccupancyMap& map, const WorldConfig& config);
 
   int arenaCount() const { return config_.arenas; }
@@ -112,6 +101,10 @@ class World {
   std::string reset(int arena, const std::vector<std::pair<int, Pose2D>>& new_start_poses = {},
                     std::optional<uint64_t> episode_seed = std::nullopt);
 
+  // Whether something at `rate` [Hz] is due at `tick` of a physics at `physics_rate`: on the
+  // ticks at which the count of its periods goes up (exact for rates dividing physics_rate).
+  static bool due(uint64_t tick, double rate, double physics_rate);
+
   // Why a robot of `arena` could not stand at `pose` given the other poses of the arena
   // (skip_index: the robot itself), or "" if it can.
   std::string placementProblem(const Pose2D& pose, const std::vector<Pose2D>& arena_poses, int skip_index) const;
@@ -134,7 +127,6 @@ class World {
     Rng motion_rng, lidar_rng;
   };
 
-  static bool due(uint64_t tick, double rate, double physics_rate);
   void updateTarget(Robot& robot);
   void moveRobot(int global_index);
   // Wall or robot (index within the arena) the robot would overlap at `pose`; -2: nothing.

@@ -1,5 +1,7 @@
 #include "marl_mrta/nav/ros_conversions.h"
 
+#include <ros/param.h>
+
 #include <cmath>
 #include <sstream>
 
@@ -35,6 +37,14 @@ YAML::Node toYaml(const XmlRpc::XmlRpcValue& value) {
     default:
       return YAML::Node(v.toXml());
   }
+}
+
+YAML::Node parameterTree(const ros::NodeHandle& nh) {
+  XmlRpc::XmlRpcValue params;
+  if (!ros::param::get(nh.getNamespace(), params) || params.getType() != XmlRpc::XmlRpcValue::TypeStruct) {
+    return YAML::Node(YAML::NodeType::Map);
+  }
+  return toYaml(params);
 }
 
 double yawOf(const geometry_msgs::Quaternion& q) {

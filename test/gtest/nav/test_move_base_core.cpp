@@ -17,17 +17,7 @@ namespace {
 
 const std::string kConfigDir = std::string(MARL_MRTA_SOURCE_DIR) + "/config/nav/";
 
-MoveBaseConfig projectConfig() {
-  YAML::Node tree(YAML::NodeType::Map);
-  loadYamlFileInto(tree, kConfigDir + "costmap_common_params_burger.yaml", "global_costmap");
-  loadYamlFileInto(tree, kConfigDir + "costmap_common_params_burger.yaml", "local_costmap");
-  loadYamlFileInto(tree, kConfigDir + "local_costmap_params.yaml", "");
-  loadYamlFileInto(tree, kConfigDir + "global_costmap_params.yaml", "");
-  loadYamlFileInto(tree, kConfigDir + "move_base_params.yaml", "");
-  loadYamlFileInto(tree, kConfigDir + "dwa_local_planner_params_burger.yaml", "");
-  loadYamlFileInto(tree, kConfigDir + "navfn_params.yaml", "");
-  return readMoveBaseConfig(ParamNode(tree, "move_base"));
-}
+MoveBaseConfig projectConfig() { return readMoveBaseConfig(ParamNode(loadMoveBaseParams(kConfigDir), "move_base")); }
 
 // A unicycle following commands within the acceleration limits; odom = map (ideal localisation).
 struct Harness {

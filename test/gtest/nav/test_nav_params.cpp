@@ -5,7 +5,10 @@
 #include <sys/stat.h>
 
 #include <cmath>
+#include <fstream>
 #include <functional>
+#include <regex>
+#include <sstream>
 
 #include "marl_mrta/nav/move_base_config.h"
 
@@ -111,20 +114,30 @@ TEST(NavParams, Turtlebot3FilesLoadUnchangedWithEveryParameterRead) {
 }
 
 TEST(NavParams, ProjectConfigFilesLoadWithEveryParameterRead) {
-  const std::string dir = kSourceDir + "/config/nav/";
-  YAML::Node tree(YAML::NodeType::Map);
-  loadYamlFileInto(tree, dir + "costmap_common_params_burger.yaml", "global_costmap");
-  loadYamlFileInto(tree, dir + "costmap_common_params_burger.yaml", "local_costmap");
-  loadYamlFileInto(tree, dir + "local_costmap_params.yaml", "");
-  loadYamlFileInto(tree, dir + "global_costmap_params.yaml", "");
-  loadYamlFileInto(tree, dir + "move_base_params.yaml", "");
-  loadYamlFileInto(tree, dir + "dwa_local_planner_params_burger.yaml", "");
-  loadYamlFileInto(tree, dir + "navfn_params.yaml", "");
+  const YAML::Node tree = loadMoveBaseParams(kSourceDir + "/config/nav");
   const ParamNode ns(tree, "move_base");
   const MoveBaseConfig config = readMoveBaseConfig(ns);
   EXPECT_TRUE(ns.unreadKeys().empty()) << "not read: " << joined(ns.unreadKeys());
   EXPECT_DOUBLE_EQ(2.75, config.dwa.limits.max_vel_theta);
   EXPECT_DOUBLE_EQ(0.0, config.navfn.path_variability) << "path variability must be off by default";
+}
+
+TEST(NavParams, RobotNavLaunchLoadsTheMoveBaseParamFiles) {
+  std::ifstream file(kSourceDir + "/launch/include/robot_nav.launch");
+  std::stringstream text;
+  text << file.rdbuf();
+  // The move_base node's element: from its name to the end of the node.
+  const std::string launch = text.str();
+  const size_t begin = launch.find("name=\"move_base\"");
+  ASSERT_NE(std::string::npos, begin);
+  const std::string move_base = launch.substr(begin, launch.find("</node>", begin) - begin);
+  const std::regex load(R"re(<rosparam file="\$\(arg config_dir\)/([^"]+)" command="load"(?: ns="([^"]*)")?\s*/>)re");
+  std::vector<std::string> launched, listed;
+  for (auto it = std::sregex_iterator(move_base.begin(), move_base.end(), load); it != std::sregex_iterator(); ++it) {
+    launched.push_back((*it)[1].str() + " -> " + (*it)[2].str());
+  }
+  for (const ParamFileLoad& entry : moveBaseParamFiles()) listed.push_back(entry.file + " -> " + entry.ns);
+  EXPECT_EQ(listed, launched);
 }
 
 TEST(NavParams, OldDwaNamesAreReadWhenTheNewOnesAreAbsent) {

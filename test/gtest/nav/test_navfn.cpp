@@ -189,3 +189,63 @@ TEST(Navfn, PathVariabilityIsOffByDefaultAndSeeded) {
   }
   EXPECT_EQ(2u, sides.size()) << "twelve draws should pass the column on both sides";
 }
+
+namespace {
+
+// makePlans against makePlan for every goal, to the bit: the same status, message and points.
+void expectSameAsOneByOne(const CostGrid& costs, const Pose2D& start, const std::vector<Pose2D>& goals,
+                          double tolerance) {
+  NavfnPlanner together{NavfnConfig{}}, one_by_one{NavfnConfig{}};
+  const std::vector<PlanResult> plans = together.makePlans(costs, start, goals, tolerance);
+  ASSERT_EQ(goals.size(), plans.size());
+  for (size_t i = 0; i < goals.size(); ++i) {
+    const PlanResult single = one_by_one.makePlan(costs, start, goals[i], tolerance);
+    ASSERT_EQ(single.status, plans[i].status) << "goal " << i << ": " << single.message << " / " << plans[i].message;
+    ASSERT_EQ(single.message, plans[i].message);
+    ASSERT_EQ(single.path.size(), plans[i].path.size()) << "goal " << i;
+    for (size_t k = 0; k < single.path.size(); ++k) {
+      ASSERT_EQ(single.path[k].x, plans[i].path[k].x) << "goal " << i << ", point " << k;
+      ASSERT_EQ(single.path[k].y, plans[i].path[k].y) << "goal " << i << ", point " << k;
+      ASSERT_EQ(single.path[k].yaw, plans[i].path[k].yaw) << "goal " << i << ", point " << k;
+    }
+  }
+}
+
+}  // namespace
+
+TEST(Navfn, PlansToManyGoalsFromOneWaveAreThePlansOneByOne) {
+  // The lab map: goals on free cells all over it, one in a wall, one off the map.
+  const marl_mrta::map::OccupancyMap lab = marl_mrta::map::loadMap(std::string(MARL_MRTA_SOURCE_DIR) + "/maps/lab.yaml");
+  auto costmap = costmapOf(lab);
+  const CostGrid& costs = costmap->costmap();
+  std::vector<Pose2D> free_poses;
+  for (unsigned y = 3; y < costs.sizeY(); y += 7) {
+    for (unsigned x = 5; x < costs.sizeX(); x += 9) {
+      double wx, wy;
+      costs.mapToWorld(x, y, wx, wy);
+      if (costs.cost(x, y) < 253) free_poses.push_back({wx + 0.011, wy - 0.017, 0.1 * x});
+    }
+  }
+  ASSERT_GT(free_poses.size(), 40u);
+  std::vector<Pose2D> goals = free_poses;
+  goals.push_back({0.0, 0.0, 0.0});
+  for (unsigned x = 0; x < costs.sizeX(); ++x) {
+    if (costs.cost(x, costs.sizeY() / 2) == 254) {
+      double wx, wy;
+      costs.mapToWorld(x, costs.sizeY() / 2, wx, wy);
+      goals.push_back({wx, wy, 0.0});
+      break;
+    }
+  }
+  goals.push_back({-5.0, 2.0, 0.0});
+  for (size_t s = 0; s < free_poses.size(); s += 5) expectSameAsOneByOne(costs, free_poses[s], goals, 0.0);
+  // With a tolerance the wave covers the whole map.
+  expectSameAsOneByOne(costs, free_poses[3], goals, 0.2);
+
+  // A walled-in box: the goals inside are unreachable from outside and the other way round.
+  const auto boxed = roomMap(60, 40, {{30, 10, 50, 12}, {30, 28, 50, 30}, {30, 10, 32, 30}, {48, 10, 50, 30}});
+  auto boxed_costmap = costmapOf(boxed, 0.3);
+  const std::vector<Pose2D> boxed_goals = {{0.5, 0.5, 0.0}, {2.0, 1.0, 0.0}, {0.5, 1.5, 0.0}, {2.8, 1.8, 0.0}};
+  expectSameAsOneByOne(boxed_costmap->costmap(), {0.5, 1.0, 0.0}, boxed_goals, 0.0);
+  expectSameAsOneByOne(boxed_costmap->costmap(), {2.0, 1.0, 0.0}, boxed_goals, 0.0);
+}

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "marl_mrta/map/occupancy_map.h"
+#include "marl_mrta/sim/sim_config.h"
 #include "marl_mrta/sim/world.h"
 
 namespace marl_mrta {
@@ -62,6 +63,11 @@ inline WorldConfig idealConfig(std::vector<Pose2D> start_poses, int arenas = 1) 
   config.start_poses = std::move(start_poses);
   config.cmd_vel_timeout = 0.0;  // tests command once and let the robot drive
   return config;
+}
+
+// A profile of config/noise_profiles.yaml.
+inline NoiseModel noiseProfile(const std::string& name) {
+  return loadNoiseProfiles(std::string(MARL_MRTA_SOURCE_DIR) + "/config/noise_profiles.yaml").at(name);
 }
 
 // Drives every robot with the same command for `ticks` ticks (the command is repeated each tick).

@@ -41,7 +41,7 @@ TEST(Arenas, AnArenaEvolvesExactlyAsItWouldAlone) {
   map::OccupancyMap map = room(7.0, 5.0);
   testing::addBox(map, 3.3, 2.0, 3.7, 2.4);
   WorldConfig config = idealConfig({{1.0, 1.0, 0.0}, {1.0, 4.0, 0.0}, {6.0, 2.5, M_PI}});
-  config.noise = noiseProfile("measured_tb3");
+  config.noise = testing::noiseProfile("measured_tb3");
   config.seed = 5;
   auto command = [](int t, int i) {
     return Twist2D{0.22 * std::cos(t * 0.02 * (i + 1)), 1.5 * std::sin(t * 0.011 * (i + 3))};

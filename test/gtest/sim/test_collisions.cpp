@@ -126,21 +126,21 @@ TEST(Collisions, StartPosesInsideObstaclesOrOverlappingAreRejected) {
   try {
     World world(map, idealConfig({{0.5, 0.5, 0.0}, {1.75, 1.5, 0.0}}));
     FAIL() << "a start pose inside a column was accepted";
-  } catch (const WorldError& e) {
-    EXPECT_EQ(e.field(), "start_poses[1]");
+  } catch (const nav::ParamError& e) {
+    EXPECT_EQ(e.where(), "start_poses[1]");
     EXPECT_NE(e.problem().find("overlaps an obstacle"), std::string::npos) << e.what();
   }
   try {
     World world(map, idealConfig({{0.5, 0.5, 0.0}, {0.6, 0.5, 0.0}}));
     FAIL() << "overlapping start poses were accepted";
-  } catch (const WorldError& e) {
-    EXPECT_EQ(e.field(), "start_poses[0]");
+  } catch (const nav::ParamError& e) {
+    EXPECT_EQ(e.where(), "start_poses[0]");
     EXPECT_NE(e.problem().find("overlaps robot 1"), std::string::npos) << e.what();
   }
   try {
     World world(map, idealConfig({{-3.0, 0.5, 0.0}}));
     FAIL() << "a start pose outside the map was accepted";
-  } catch (const WorldError& e) {
+  } catch (const nav::ParamError& e) {
     EXPECT_NE(e.problem().find("not on a known free cell"), std::string::npos) << e.what();
   }
 }

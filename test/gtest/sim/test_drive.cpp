@@ -115,7 +115,7 @@ TEST(DiffDrive, IdealOdometryEqualsGroundTruthMotion) {
 TEST(DiffDrive, MeasuredProfileIsSlowerDriftsAndIsReproducible) {
   const map::OccupancyMap map = room(40.0, 20.0);
   WorldConfig config = idealConfig({{2.0, 10.0, 0.0}});
-  config.noise = noiseProfile("measured_tb3");
+  config.noise = testing::noiseProfile("measured_tb3");
   config.noise.pause_rate = 0.0;  // pauses are tested below; here the steady speed
   config.seed = 3;
   auto run = [&](uint64_t seed) {
@@ -173,7 +173,7 @@ TEST(World, SameCommandsGiveBitIdenticalResults) {
   map::OccupancyMap map = room(7.0, 5.0);
   testing::addBox(map, 3.0, 1.0, 3.4, 1.4);
   WorldConfig config = idealConfig({{1.0, 1.0, 0.0}, {1.0, 4.0, 0.0}, {6.0, 2.5, M_PI}});
-  config.noise = noiseProfile("measured_tb3");
+  config.noise = testing::noiseProfile("measured_tb3");
   config.seed = 11;
   auto run = [&] {
     World world(map, config);
@@ -200,7 +200,7 @@ TEST(World, AnEpisodeSeedMakesTheEpisodeIndependentOfEarlierTicks) {
   map::OccupancyMap map = room(7.0, 5.0);
   testing::addBox(map, 3.0, 1.0, 3.4, 1.4);
   WorldConfig config = idealConfig({{1.0, 1.0, 0.0}, {1.0, 4.0, 0.0}});
-  config.noise = noiseProfile("measured_tb3");
+  config.noise = testing::noiseProfile("measured_tb3");
   config.seed = 3;
   // `earlier` ticks of driving (a multiple of the scan period, so sensors keep their phase),
   // then an episode reset with `episode_seed` and 600 ticks of the same commands.
@@ -261,8 +261,8 @@ TEST(World, BadConfigurationNamesTheField) {
   try {
     World world(map, config);
     FAIL() << "accepted scan_rate above physics_rate";
-  } catch (const WorldError& e) {
-    EXPECT_EQ(e.field(), "scan_rate");
+  } catch (const nav::ParamError& e) {
+    EXPECT_EQ(e.where(), "scan_rate");
   }
 }
 

@@ -237,7 +237,7 @@ TEST(Lidar, DropoutAndNoiseFollowTheirParametersAndTheSeed) {
 TEST(Lidar, MeasuredProfileDropsTwoToFourPercent) {
   const map::OccupancyMap map = room(5.0, 4.0);
   WorldConfig config = testing::idealConfig({{2.5, 2.0, 0.0}});
-  config.noise = noiseProfile("measured_tb3");
+  config.noise = testing::noiseProfile("measured_tb3");
   World world(map, config);
   int dropped = 0, readings = 0;
   for (int t = 0; t < 400; ++t) {

@@ -1,6 +1,8 @@
-// The simulator node's settings: defaults, and one check per bad value naming the setting.
+// The simulator node's settings: the files sim.launch loads give today's parameters, every
+// parameter is read typed and known, and one check per bad value names the setting.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <functional>
 
 #include "marl_mrta/sim/sim_config.h"
@@ -9,22 +11,96 @@ namespace marl_mrta {
 namespace sim {
 namespace {
 
-SimConfig validConfig() {
-  SimConfig config;
-  config.map_file = "maps/lab.yaml";
-  return config;
+const std::string kConfigDir = std::string(MARL_MRTA_SOURCE_DIR) + "/config/";
+
+// The simulator's private namespace as sim.launch loads it.
+YAML::Node launchParameters() {
+  YAML::Node tree(YAML::NodeType::Map);
+  nav::loadYamlFileInto(tree, kConfigDir + "robot_burger.yaml", "");
+  nav::loadYamlFileInto(tree, kConfigDir + "sim.yaml", "");
+  nav::loadYamlFileInto(tree, kConfigDir + "noise_profiles.yaml", "noise_profiles");
+  nav::setParam(tree, "map_file", YAML::Node(MARL_MRTA_SOURCE_DIR "/maps/lab.yaml"));
+  return tree;
 }
 
-// The ConfigError of makeWorldConfig after `change`, or "accepted".
+// The ParamError of readSimConfig with `key` set to the YAML `value`, or "accepted".
+std::string readErrorWith(const std::string& key, const std::string& value) {
+  YAML::Node tree = launchParameters();
+  nav::setParam(tree, key, YAML::Load(value));
+  try {
+    readSimConfig(nav::ParamNode(tree, "/simulator"));
+  } catch (const nav::ParamError& e) {
+    return e.what();
+  }
+  return "accepted";
+}
+
+SimConfig validConfig() { return readSimConfig(nav::ParamNode(launchParameters(), "/simulator")); }
+
+// The ParamError of makeWorldConfig after `change`, or "accepted".
 std::string errorAfter(const std::function<void(SimConfig&)>& change) {
   SimConfig config = validConfig();
   change(config);
   try {
     makeWorldConfig(config);
-  } catch (const ConfigError& e) {
+  } catch (const nav::ParamError& e) {
     return e.what();
   }
   return "accepted";
+}
+
+TEST(SimConfig, TheLaunchFilesGiveTheBurgerAndItsNoise) {
+  const SimConfig config = validConfig();
+  const RobotSpec& robot = config.robot;
+  EXPECT_EQ(robot.radius, 0.105);
+  EXPECT_EQ(robot.limits.max_linear_velocity, 0.22);
+  EXPECT_EQ(robot.limits.max_angular_velocity, 2.84);
+  EXPECT_EQ(robot.limits.max_linear_acceleration, 2.5);
+  EXPECT_EQ(robot.limits.max_angular_acceleration, 3.2);
+  EXPECT_EQ(robot.lidar.beams, 360);
+  EXPECT_EQ(robot.lidar.range_min, 0.12);
+  EXPECT_EQ(robot.lidar.range_max, 3.5);
+  EXPECT_EQ(robot.lidar.mount_x, -0.032);
+  EXPECT_EQ(robot.lidar.mount_y, 0.0);
+  EXPECT_EQ(config.scan_rate, 5.0);
+  // The defaults of the core are the same robot.
+  const RobotSpec defaults;
+  EXPECT_EQ(robot.radius, defaults.radius);
+  EXPECT_EQ(robot.limits.max_linear_velocity, defaults.limits.max_linear_velocity);
+  EXPECT_EQ(robot.limits.max_angular_velocity, defaults.limits.max_angular_velocity);
+  EXPECT_EQ(robot.limits.max_linear_acceleration, defaults.limits.max_linear_acceleration);
+  EXPECT_EQ(robot.limits.max_angular_acceleration, defaults.limits.max_angular_acceleration);
+  EXPECT_EQ(robot.lidar.beams, defaults.lidar.beams);
+  EXPECT_EQ(robot.lidar.range_min, defaults.lidar.range_min);
+  EXPECT_EQ(robot.lidar.range_max, defaults.lidar.range_max);
+  EXPECT_EQ(robot.lidar.mount_x, defaults.lidar.mount_x);
+  EXPECT_EQ(robot.lidar.mount_y, defaults.lidar.mount_y);
+  EXPECT_EQ(config.scan_rate, SimConfig{}.scan_rate);
+
+  // measured_tb3, to the bit: the constants the simulator was written with.
+  ASSERT_EQ(config.noise_profiles.count("measured_tb3"), 1u);
+  const NoiseModel& noise = config.noise_profiles.at("measured_tb3");
+  EXPECT_EQ(noise.linear_speed_scale, 0.19 / 0.22);
+  EXPECT_EQ(noise.command_latency_min, 0.040);
+  EXPECT_EQ(noise.command_latency_max, 0.070);
+  EXPECT_EQ(noise.pause_rate, 4.5 / 120.0);
+  EXPECT_EQ(noise.pause_duration_min, 0.5);
+  EXPECT_EQ(noise.pause_duration_max, 1.2);
+  EXPECT_EQ(noise.lidar_range_stddev, 0.01);
+  EXPECT_EQ(noise.lidar_dropout_min, 0.02);
+  EXPECT_EQ(noise.lidar_dropout_max, 0.04);
+  EXPECT_EQ(noise.odom_translation_stddev, 0.02);
+  EXPECT_EQ(noise.odom_rotation_stddev, 0.05);
+  // ideal: every noise absent, also from the file itself.
+  for (const auto& profiles : {config.noise_profiles, loadNoiseProfiles(kConfigDir + "noise_profiles.yaml")}) {
+    ASSERT_EQ(profiles.count("ideal"), 1u);
+    const NoiseModel& ideal = profiles.at("ideal");
+    EXPECT_EQ(ideal.linear_speed_scale, 1.0);
+    EXPECT_EQ(ideal.command_latency_max, 0.0);
+    EXPECT_EQ(ideal.pause_rate, 0.0);
+    EXPECT_EQ(ideal.lidar_dropout_max, 0.0);
+    EXPECT_EQ(ideal.odom_rotation_stddev, 0.0);
+  }
 }
 
 TEST(SimConfig, DefaultsAreTheArchitectureOnes) {
@@ -50,13 +126,48 @@ TEST(SimConfig, SettingsReachTheWorld) {
   const WorldConfig world = makeWorldConfig(config);
   EXPECT_EQ(world.start_poses.size(), 4u);
   EXPECT_EQ(world.arenas, 3);
-  EXPECT_NEAR(world.noise.linear_speed_scale, 0.19 / 0.22, 1e-12);
+  EXPECT_EQ(world.noise.linear_speed_scale, 0.19 / 0.22);
   EXPECT_TRUE(world.robot.lidar.invalid_as_inf);
   EXPECT_EQ(world.seed, 9u);
   const std::vector<std::string> names = robotNamespaces(config);
   ASSERT_EQ(names.size(), 12u);
   EXPECT_EQ(names[0], "arena_0/tb3_0");
   EXPECT_EQ(names[11], "arena_2/tb3_3");
+}
+
+TEST(SimConfig, WithoutNoiseProfilesOnlyIdealIsKnown) {
+  const SimConfig config = readSimConfig(nav::ParamNode(YAML::Node(YAML::NodeType::Map), "/simulator"));
+  ASSERT_EQ(config.noise_profiles.size(), 1u);
+  EXPECT_EQ(config.noise_profiles.begin()->first, "ideal");
+}
+
+TEST(SimConfig, EachBadParameterNamesIt) {
+  EXPECT_EQ(readErrorWith("robts", "3"), "/simulator/robts: unknown parameter (see docs/simulator.md for the list)");
+  EXPECT_EQ(readErrorWith("rtf", "fast"), "/simulator/rtf: expected a number, got 'fast'");
+  EXPECT_EQ(readErrorWith("rtf", ".inf"), "/simulator/rtf: must be finite");
+  EXPECT_EQ(readErrorWith("robots", "2.5"), "/simulator/robots: expected an integer, got '2.5'");
+  EXPECT_EQ(readErrorWith("lockstep", "sometimes"), "/simulator/lockstep: expected true or false, got 'sometimes'");
+  EXPECT_EQ(readErrorWith("start_poses", "[[0.5, 0.5, 0.0], [1.0, 2.0]]"),
+            "/simulator/start_poses[1]: must be [x, y, yaw] (3 numbers, m and rad)");
+  EXPECT_EQ(readErrorWith("lockstep_robots", "[tb3_0, [tb3_1]]"), "/simulator/lockstep_robots[1]: must be a robot name");
+  EXPECT_EQ(readErrorWith("footprint", "[[0.1, 0.1], [0.1, -0.1]]"),
+            "/simulator/footprint: must be a list of at least 3 points [x, y] (m)");
+  EXPECT_EQ(readErrorWith("footprint", "[[0.1, 0.1], [0.1, -0.1], [-0.1]]"),
+            "/simulator/footprint[2]: must be [x, y] (2 numbers, m)");
+  EXPECT_EQ(readErrorWith("wheel_radius", "0.0"), "/simulator/wheel_radius: must be positive");
+  EXPECT_EQ(readErrorWith("noise_profiles/measured_tb3/pause_rat", "0.1"),
+            "/simulator/noise_profiles/measured_tb3/pause_rat: unknown parameter (see docs/simulator.md for the list)");
+  EXPECT_EQ(readErrorWith("noise_profiles/measured_tb3/lidar_dropout", "[0.04, 0.02]"),
+            "/simulator/noise_profiles/measured_tb3/lidar_dropout: must satisfy 0 <= min <= max <= 1, got [0.04, 0.02]");
+  EXPECT_EQ(readErrorWith("noise_profiles/measured_tb3/command_latency", "0.05"),
+            "/simulator/noise_profiles/measured_tb3/command_latency: must be [min, max] (2 numbers)");
+  EXPECT_EQ(readErrorWith("noise_profiles/measured_tb3/linear_speed_scale", "0"),
+            "/simulator/noise_profiles/measured_tb3/linear_speed_scale: must be positive");
+  EXPECT_EQ(readErrorWith("noise_profiles/noisy", "0.5"),
+            "/simulator/noise_profiles/noisy: expected a namespace of parameters, got '0.5'");
+  // Used by the description's other readers only, and accepted as such.
+  EXPECT_EQ(readErrorWith("lidar_offset_z", "0.2"), "accepted");
+  EXPECT_EQ(readErrorWith("noise_profiles/measured_tb3/proximity_collisions", "false"), "accepted");
 }
 
 TEST(SimConfig, EachBadValueNamesItsSetting) {
