@@ -64,7 +64,7 @@ class ManagerBadInputTest(unittest.TestCase):
 
     def test_wrong_type(self):
         self.assert_one_fatal_line({"scenario": self.scenario, "arena": "first"},
-                                   "<name>/arena: expected an integer >= 0, got 'first'")
+                                   "<name>/arena: expected an integer, got 'first'")
 
     def test_no_simulator(self):
         self.assert_one_fatal_line({"scenario": self.scenario, "graph_wait": 1.0},

@@ -1,4 +1,4 @@
-"""sdf_to_map: the committed lab map, geometry digitising, and one-line errors for bad input."""
+"""sdf_to_map: the committed lab and site maps, geometry digitising, and one-line errors for bad input."""
 import math
 import os
 import subprocess
@@ -52,6 +52,26 @@ def test_regenerated_lab_map_is_byte_identical_to_the_committed_one(tmp_path):
     assert result.returncode == 0, result.stderr
     assert (tmp_path / "lab.pgm").read_bytes() == (REPO / "maps" / "lab.pgm").read_bytes()
     assert (tmp_path / "lab.yaml").read_text() == (REPO / "maps" / "lab.yaml").read_text()
+
+
+def test_regenerated_site_map_is_byte_identical_to_the_committed_one(tmp_path):
+    result = run_script(REPO / "maps" / "site.sdf", tmp_path / "site.yaml", "--origin", "-0.5", "-0.5",
+                        "--size", "17.0", "11.0")
+    assert result.returncode == 0, result.stderr
+    assert (tmp_path / "site.pgm").read_bytes() == (REPO / "maps" / "site.pgm").read_bytes()
+    assert (tmp_path / "site.yaml").read_text() == (REPO / "maps" / "site.yaml").read_text()
+
+
+def test_site_map_has_its_bays_doors_columns_and_office():
+    site = load_map(REPO / "maps" / "site.yaml")
+    assert (site.width, site.height) == (340, 220)
+    for y in (0.5, 5.0, 9.5):                       # partitions closed outside the doors
+        assert site.value_at(5.3, y) == OCCUPIED and site.value_at(10.7, y) == OCCUPIED
+    for y in (2.4, 7.6):                            # two 1.2 m doors in each partition
+        assert site.value_at(5.3, y) == FREE and site.value_at(10.7, y) == FREE
+    for x, y in ((1.8, 3.3), (9.1, 7.5), (14.2, 6.0), (8.0, 5.0)):   # columns, the stair core
+        assert site.value_at(x, y) == OCCUPIED
+    assert site.value_at(13.8, 7.6) == OCCUPIED and site.value_at(14.7, 7.6) == FREE   # the office door
 
 
 @pytest.fixture(scope="module")

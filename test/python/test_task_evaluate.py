@@ -1,6 +1,13 @@
 """The `evaluate` command: table, JSON and Gantt charts for plans, the random baseline and a
-learned actor file, all scored through the environment; bad input is one line and exit 2."""
+learned actor file, all scored through the environment; the reference's best makespan, lower
+bound and gap; a 16-robot, 32-task scenario within a 4 GB address space; bad input is one line
+and exit 2."""
 import json
+import math
+import os
+import resource
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -59,6 +66,8 @@ def test_policy_method_runs_a_saved_actor(tmp_path, capsys):
     (["--method", "policy", "--policy", "/nonexistent/actor.pt"], "evaluate: /nonexistent/actor.pt: no such file"),
     (["--method", "greedy"], "evaluate: --method: greedy: choose from random, ga, exact, auction, policy"),
     (["--method", "random", "--episodes", "0"], "evaluate: --episodes: must be at least 1, got 0"),
+    (["--method", "exact", "--time-limit", "0"], "evaluate: --time-limit: must be positive, got 0"),
+    (["--method", "exact", "--workers", "0"], "evaluate: --workers: must be at least 1, got 0"),
 ])
 def test_bad_input_is_one_line_and_exit_2(argv, message, tmp_path, capsys):
     code = main(argv + ["--scenario", LAB_2R, "--out", str(tmp_path / "x.json"), "--quiet", "--no-exact"])
@@ -84,3 +93,46 @@ def test_unwritable_out_is_one_line_before_any_episode(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert err == [err[0]] and err[0].startswith(f"evaluate: --out {blocker / 'x.json'}: cannot make the directory")
     assert blocker.read_text() == "kept"
+
+
+def test_evaluate_reports_the_reference_with_its_bound_and_gap(tmp_path, capsys):
+    out = tmp_path / "ref.json"
+    assert main(["--method", "exact,auction", "--scenario", LAB_2R, "--episodes", "1", "--out", str(out), "--quiet",
+                 "--time-limit", "2", "--workers", "1"]) == 0
+    captured = capsys.readouterr()
+    assert "reference: best" in captured.err and "proven optimal" in captured.err
+    assert "ratios: makespan / the proven optimum" in captured.out
+    data = json.loads(out.read_text())
+    reference = data["reference"]
+    assert reference["proven_optimal"] and reference["gap"] == 0.0 and reference["solver"] == "astar"
+    assert reference["best_makespan"] == reference["lower_bound"] == data["exact"]["makespan"]
+    summaries = {r["summary"]["method"]: r["summary"] for r in data["results"]}
+    assert summaries["exact"]["ratio_basis"] == "exact" and summaries["exact"]["ratio_to_lower_bound"] == pytest.approx(1.0)
+
+
+def _address_space_4_gb():
+    resource.setrlimit(resource.RLIMIT_AS, (4 << 30, 4 << 30))
+
+
+def test_evaluate_finishes_16_robots_and_32_tasks_within_4_gb_of_address_space(tmp_path):
+    """Every method's schedule and the reference's bound on site_16r, the process limited to a
+    4 GB address space (a solver that outgrew its budget would be killed or fail to allocate)."""
+    out = tmp_path / "site.json"
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")]))
+    result = subprocess.run([sys.executable, str(ROOT / "scripts" / "evaluate"), "--method", "random,ga,auction,exact",
+                             "--scenario", str(ROOT / "scenarios" / "site_16r.xml"), "--episodes", "1",
+                             "--time-limit", "1", "--quiet", "--out", str(out)],
+                            capture_output=True, text=True, env=env, timeout=600, preexec_fn=_address_space_4_gb)
+    assert result.returncode == 0, result.stderr[-2000:]
+    data = json.loads(out.read_text())
+    reference = data["reference"]
+    assert 0 < reference["lower_bound"] <= reference["best_makespan"] < math.inf
+    assert reference["proven_optimal"] == (reference["gap"] == 0.0)
+    for entry in data["results"]:
+        summary = entry["summary"]
+        assert summary["complete_pct"] == 100.0, summary["method"]
+        if entry["plan"] is not None:
+            assert sorted(t for tasks in entry["plan"]["robot_tasks"] for t in tasks) == sorted(
+                t for tasks in data["exact"]["robot_tasks"] for t in tasks)
+            assert summary["logic_consistent_pct"] == 100.0
+    assert {e["summary"]["method"] for e in data["results"]} == {"random", "ga", "auction", "exact"}

@@ -63,6 +63,13 @@ MALFORMED = [
     ("unknown_reward_key", "<reward>: logic.wrong_finishd: unknown key"),
     ("missing_map_file", "<map>: cannot load the map:"),
     ("not_xml", "file: not well-formed XML"),
+    ("overlapping_starts", '<robot id="tb3_1">: start pose (0.5, 0.5) overlaps the footprint of robot tb3_0 '
+                           "(0 m apart, at least 0.21 m needed)"),
+    ("goals_too_close", '<task id="B1">: goal (1.3, 1) is closer than a robot\'s footprint to the goal of task A1 '
+                        "(0.1 m apart, at least 0.21 m needed)"),
+    ("service_beyond_timeout", '<task id="A1">: service_time 150 s does not fit in the episode timeout (120 s)'),
+    ("precedence_beyond_timeout", '<task id="B1">: cannot be finished in order within the episode timeout (120 s): '
+                                  "the chain A1 -> B1 needs 130 s of service alone"),
 ]
 
 
@@ -86,7 +93,39 @@ def test_goal_where_navigation_cannot_plan_is_rejected_when_building_the_environ
                                 "where navigation cannot plan")
 
 
-@pytest.mark.parametrize("name", ["precedence_cycle", "goal_too_close_to_wall"])
+def test_task_no_start_can_reach_is_named_when_building_the_environment():
+    path = FIXTURES / "unreachable_task.xml"
+    load_scenario(path)   # every goal on a free cell
+    with pytest.raises(ScenarioError) as error:
+        make_env(path)
+    text = str(error.value)
+    assert "\n" not in text and text.startswith(f"{path}: <task id=\"A2\">: goal") and "cannot be reached" in text
+
+
+def test_task_only_legs_beyond_the_goal_timeout_lead_to_is_named_by_the_planners_instance():
+    from marl_mrta.baselines.reference import scheduling_instance
+    path = FIXTURES / "beyond_goal_timeout.xml"
+    env = make_env(path)   # navigation can plan there, just not within one goal's time
+    with pytest.raises(ScenarioError) as error:
+        scheduling_instance(env.scenario, env.settings.min_step, env.settings.goal_timeout)
+    assert str(error.value) == (f"{path}: <task id=\"A1\">: no robot can reach its goal (15.4, 9.4): every way there "
+                                f"has a leg longer than the goal timeout ({env.settings.goal_timeout:g} s)")
+
+
+@pytest.mark.parametrize("name,robots,tasks", [("site_8r", 8, 16), ("site_16r", 16, 32)])
+def test_shipped_site_scenarios(name, robots, tasks):
+    scenario = load_scenario(ROOT / "scenarios" / f"{name}.xml")
+    assert (scenario.n_robots, scenario.n_tasks, scenario.map_path.name) == (robots, tasks, "site.yaml")
+    stage = {t.category: {u.service_time for u in scenario.tasks if u.category == t.category} for t in scenario.tasks}
+    assert sorted(stage) == ["A", "B", "C"] and stage == {"A": {3.0}, "B": {4.0}, "C": {2.0}}
+    for j, task in enumerate(scenario.tasks):   # three stages: B after A tasks, C after B tasks
+        before = {scenario.tasks[p].category for p in scenario.predecessors[j]}
+        assert before == {"A": set(), "B": {"A"}, "C": {"B"}}[task.category], task.id
+    assert sum(len(p) == 2 for p in scenario.predecessors) >= tasks // 3   # two-predecessor joins
+
+
+@pytest.mark.parametrize("name", ["precedence_cycle", "goal_too_close_to_wall", "unreachable_task", "overlapping_starts",
+                                  "beyond_goal_timeout"])
 def test_evaluate_command_reports_one_line_and_exit_2(name, tmp_path):
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")]))
     result = subprocess.run([sys.executable, str(ROOT / "scripts" / "evaluate"), "--method", "random",

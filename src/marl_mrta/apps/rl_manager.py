@@ -65,13 +65,14 @@ def execute(args: argparse.Namespace, log: Callable[[str], None]) -> Dict:
 
     exact_makespan = None
     if not args.no_exact:
-        exact, _ = scenario_reference(env.scenario, env.settings.min_step)
+        exact, _ = scenario_reference(env.scenario, env.settings.min_step, goal_timeout=env.settings.goal_timeout)
         exact_makespan = exact.makespan if exact.proven_optimal else None
 
     policy = DecentralisedPolicy(env.n_agents, links.send, board, args.choice_timeout, stop=rospy.is_shutdown,
                                  claim_rules=claim_rules)
     started = time.monotonic()
-    records = run_episodes(env, policy, args.episodes, args.seed, ProgressLine(f"decentralised on {env.scenario.name}"))
+    records = run_episodes(env, policy, args.episodes, args.seed, ProgressLine(f"decentralised on {env.scenario.name}"),
+                           stop_on_abort=env.stops_on_abort)
     seconds = time.monotonic() - started
 
     out = Path(args.out) if args.out else package_root() / "results" / f"execute_ros_{env.scenario.name}.json"
@@ -81,12 +82,14 @@ def execute(args: argparse.Namespace, log: Callable[[str], None]) -> Dict:
     print(format_table([summary]))
     document = {
         "scenario": str(env.scenario.source), "scenario_name": env.scenario.name, "executor": "ros",
-        "execution": "decentralised", "profile": env.noise_profile, "robots": namespaces, "mask": env.settings.mask,
+        "execution": "decentralised", "mode": env.mode, "profile": env.noise_profile, "robots": namespaces, "mask": env.settings.mask,
         "episodes": args.episodes, "seed": args.seed, "exact_makespan": exact_makespan,
         "seconds": seconds, **report, "records": episode_rows(records),
     }
     write_document(out, document)
-    log(f"rl_manager: {args.episodes} episode(s) in {seconds:.1f} s wall; wrote {out} and {report['gantt']}")
+    log(f"rl_manager: {len(records)} episode(s) in {seconds:.1f} s wall; wrote {out} and {report['gantt']}")
+    if env.stops_on_abort and records[-1].abort_reason:
+        log(f"rl_manager: episode {len(records) - 1} aborted: {records[-1].abort_reason}; no further episode started")
     return document
 
 

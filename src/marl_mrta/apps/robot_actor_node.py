@@ -1,8 +1,9 @@
 """robot_actor: one robot's trained actor at run time (decentralised execution, docs/mappo.md).
 
 Started in the robot's namespace (launch/execute.launch). Parameters: ~policy (actor file),
-~agent_index (this robot's index in the scenario's robot order). Subscribes only to this
-robot's task_observation (marl_mrta/RobotObservation) and publishes its choice on task_choice
+~agent_index (this robot's index in the scenario's robot order), ~scenario (the scenario file:
+a set actor reads its observation with the scenario's tasks and nominal travel times, which
+every robot knows). Subscribes only to this robot's task_observation (marl_mrta/RobotObservation) and publishes its choice on task_choice
 (marl_mrta/TaskChoice); its GRU state is its own, reset at each episode_start. Sets
 ~action_mask and ~decision_order to those its policy was trained with (rl_manager checks them;
 a sequential policy is asked in turn, with the tasks claimed before it in `claimed`).
@@ -10,7 +11,9 @@ a sequential policy is asked in turn, with the tasks claimed before it in `claim
 
 import rospy
 
-from marl_mrta.mappo.policy import PolicyFileError, load_policy
+from marl_mrta.common.config import ConfigError
+from marl_mrta.mappo.policy import PolicyFileError, SetActorPolicy, load_policy
+from marl_mrta.model.scenario import ScenarioError, load_scenario
 from marl_mrta.msg import RobotObservation, TaskChoice
 from marl_mrta.evaluation.robot_actor import ObservationError, RobotActor
 
@@ -23,8 +26,13 @@ def main() -> int:
                        name, "policy" if not rospy.has_param("~policy") else "agent_index")
         return 2
     try:
-        actor = RobotActor(load_policy(rospy.get_param("~policy")), int(rospy.get_param("~agent_index")))
-    except (PolicyFileError, ObservationError, ValueError) as error:
+        policy = load_policy(rospy.get_param("~policy"))
+        if isinstance(policy, SetActorPolicy):
+            if not rospy.get_param("~scenario", ""):
+                raise ValueError(f"{name}/scenario: missing: a set actor needs the scenario file")
+            policy = policy.for_scenario(load_scenario(rospy.get_param("~scenario")))
+        actor = RobotActor(policy, int(rospy.get_param("~agent_index")))
+    except (PolicyFileError, ObservationError, ScenarioError, ConfigError, ValueError) as error:
         rospy.logfatal("%s: %s", name, error)
         return 2
     rospy.set_param("~action_mask", actor.policy.action_mask)

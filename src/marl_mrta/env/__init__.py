@@ -1,0 +1,1 @@
+"""The decision process (Algorithm 1), its interface (StepOutput, StepInfo, Policy) and the executors."""

@@ -1,74 +1,40 @@
 """The embedded executor: robots move on the scenario's travel-time table, no ROS.
 
-Leg time = turn / ω + path length · stretch / v + pauses, where the nominal profile uses the
-table's times unchanged and a noisy profile draws, per leg, v in [speed_min, speed_max], a
-path stretch 1 + |N(0, path_stretch_sd)| and Poisson pauses of pause_min..pause_max seconds
-(the paper's measured TB3 behaviour: 0.19 vs 0.22 m/s, 3–6 pauses of 0.5–1.2 s per episode).
-A leg longer than the goal timeout fails; a robot that fails or is cut by the episode's time
-limit stays where the step began (the table knows no intermediate poses).
-Optional proximity collisions: robots are placed along their paths over time and a pair whose
-centres come closer than `collision_distance` counts one collision event for each of them.
+Leg time = turn / ω + path length · stretch / (v · linear_speed_scale) + pauses, from one noise
+profile of config/noise_profiles.yaml (the figures the simulator applies too): the ideal profile
+uses the table's times unchanged; a noisy one stretches each path by 1 + |N(0, path_stretch_sd)|,
+drives it at the achieved speed and adds Poisson pauses (pause_rate per second of driving, each
+pause_duration long; the paper's measured TB3 behaviour: 0.19 m/s for 0.22, 3–6 pauses of
+0.5–1.2 s per episode). A leg longer than the goal timeout fails; a robot that fails or is cut by
+the episode's time limit stays where the step began (the table knows no intermediate poses).
+With proximity_collisions, robots are placed along their paths over time and a pair whose
+centres come closer than `collision_distance` (their footprints meet) counts one collision
+event for each of them.
 """
 from __future__ import annotations
 
 import random
-from dataclasses import dataclass
 from typing import List, Optional, Sequence, Set, Tuple
 
 import numpy as np
 
-from marl_mrta.common.config import ConfigSection
-from marl_mrta.model.travel import TravelTable
 from marl_mrta.env.executor import RobotOutcome, StepOutcome
-
-
-@dataclass(frozen=True)
-class NoiseProfile:
-    """How embedded navigation deviates from the nominal table (config/task_embedded.yaml)."""
-
-    speed_min: float
-    speed_max: float
-    path_stretch_sd: float
-    pause_rate: float            # pauses per second of driving
-    pause_min: float
-    pause_max: float
-    proximity_collisions: bool
-    collision_distance: float    # m between robot centres
-    collision_dt: float = 0.2    # s, time resolution of the proximity check
-
-    def is_nominal(self, nominal_speed: float) -> bool:
-        return (self.speed_min == self.speed_max == nominal_speed and self.path_stretch_sd == 0.0
-                and self.pause_rate == 0.0)
-
-    @staticmethod
-    def from_section(section: ConfigSection) -> "NoiseProfile":
-        profile = NoiseProfile(
-            speed_min=section.number("speed_min", minimum=1e-3),
-            speed_max=section.number("speed_max", minimum=1e-3),
-            path_stretch_sd=section.number("path_stretch_sd", minimum=0.0),
-            pause_rate=section.number("pause_rate", minimum=0.0),
-            pause_min=section.number("pause_min", minimum=0.0),
-            pause_max=section.number("pause_max", minimum=0.0),
-            proximity_collisions=section.boolean("proximity_collisions"),
-            collision_distance=section.number("collision_distance", minimum=0.0),
-            collision_dt=section.number("collision_dt", default=0.2, minimum=1e-3),
-        )
-        if profile.speed_min > profile.speed_max or profile.pause_min > profile.pause_max:
-            from marl_mrta.common.config import ConfigError
-            raise ConfigError(f"{section.source}: {section.path}: need speed_min <= speed_max and pause_min <= pause_max")
-        return profile
+from marl_mrta.model.noise import NoiseProfile
+from marl_mrta.model.travel import TravelTable
 
 
 class EmbeddedExecutor:
     """Executor on a TravelTable (see env/executor.py for the step contract)."""
 
     def __init__(self, table: TravelTable, n_robots: int, profile: NoiseProfile, goal_timeout: float,
-                 seed: Optional[int] = None):
+                 seed: Optional[int] = None, collision_distance: float = 0.0, collision_dt: float = 0.2):
         self.table = table
         self.n_robots = n_robots
         self.profile = profile
         self.goal_timeout = goal_timeout
-        self.nominal = profile.is_nominal(table.model.linear_speed)
+        self.nominal = profile.moves_as_planned
+        self.collision_distance = collision_distance
+        self.collision_dt = collision_dt
         self._rng = random.Random(seed)
         self._pending_seed: Optional[int] = None
         self._nodes = list(range(n_robots))
@@ -77,7 +43,7 @@ class EmbeddedExecutor:
 
     def reset(self, seed: Optional[int] = None) -> None:
         if seed is not None:
-            self._pending_seed = seed   # seeded on first use: the nominal profile draws nothing
+            self._pending_seed = seed   # seeded on first use: the ideal profile draws nothing
         self._nodes = list(range(self.n_robots))
         self._in_contact = set()
         self.clock = 0.0
@@ -93,13 +59,13 @@ class EmbeddedExecutor:
         length = self.table.length_rows[start][goal]
         if p.path_stretch_sd > 0.0:
             length *= 1.0 + abs(rng.gauss(0.0, p.path_stretch_sd))
-        speed = rng.uniform(p.speed_min, p.speed_max) if p.speed_max > p.speed_min else p.speed_min
-        drive = length / speed
+        drive = length / (self.table.model.linear_speed * p.linear_speed_scale)
         pauses = 0.0
         if p.pause_rate > 0.0:
+            shortest, longest = p.pause_duration
             t = rng.expovariate(p.pause_rate)
             while t < drive:
-                pauses += rng.uniform(p.pause_min, p.pause_max)
+                pauses += rng.uniform(shortest, longest)
                 t += rng.expovariate(p.pause_rate)
         return max(self.table.turn_rows[start][goal] + drive + pauses, self.table.model.min_goal_time)
 
@@ -137,7 +103,7 @@ class EmbeddedExecutor:
     def _proximity_events(self, legs: Sequence[Tuple[int, int, float]]) -> List[int]:
         """Collision events per robot: pairs entering `collision_distance` during the step."""
         horizon = max(nav for _, _, nav in legs)
-        times = np.arange(0.0, horizon + self.profile.collision_dt, self.profile.collision_dt)
+        times = np.arange(0.0, horizon + self.collision_dt, self.collision_dt)
         tracks = []
         for start, goal, nav in legs:
             path = self.table.paths[start][goal]
@@ -152,7 +118,7 @@ class EmbeddedExecutor:
             s = np.clip((times - turn) / drive, 0.0, 1.0) * along[-1]
             tracks.append(np.column_stack([np.interp(s, along, path[:, 0]), np.interp(s, along, path[:, 1])]))
         events = [0] * len(legs)
-        limit = self.profile.collision_distance
+        limit = self.collision_distance
         for i in range(len(legs)):
             for j in range(i + 1, len(legs)):
                 close = np.hypot(*(tracks[i] - tracks[j]).T) < limit

@@ -30,7 +30,7 @@ def make_env(scenario: Union[str, Path, Scenario], executor: Union[str, Executor
     """An environment on `scenario` (file or loaded Scenario).
 
     executor: "embedded", or an Executor object (e.g. the ROS executor) that moves the robots;
-    profile: a noise profile of config/task_embedded.yaml (default: its `profile`; embedded
+    profile: a noise profile of config/noise_profiles.yaml (default: its `profile`; embedded
     only); mask: none | finished | logic (default: config/task.yaml); seed: of the first
     reset() without a seed. Raises ScenarioError or ConfigError with a one-line message.
     """
@@ -54,5 +54,6 @@ def make_env(scenario: Union[str, Path, Scenario], executor: Union[str, Executor
         return TaskEnvironment(scenario, executor, reward, settings, bounds, seed)
     embedded = load_embedded_settings(embedded_config)
     table = nominal_travel_table(scenario, embedded.travel)
-    runner = EmbeddedExecutor(table, scenario.n_robots, embedded.profile(profile), settings.goal_timeout, seed)
+    runner = EmbeddedExecutor(table, scenario.n_robots, embedded.profile(profile), settings.goal_timeout, seed,
+                              embedded.collision_distance, embedded.collision_dt)
     return TaskEnvironment(scenario, runner, reward, settings, table.map_bounds, seed)

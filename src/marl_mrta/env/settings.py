@@ -8,10 +8,13 @@ from typing import Dict, Optional, Union
 
 from marl_mrta.common.config import ConfigError, read_yaml
 from marl_mrta.common.paths import default_config_path
+from marl_mrta.model.noise import NoiseProfile, load_noise_profiles
+from marl_mrta.model.robot import load_robot
 from marl_mrta.model.travel import TravelModel
-from marl_mrta.env.embedded import NoiseProfile
 
 MASK_MODES = ("none", "finished", "logic")
+#: The navigation's costmap parameters, in config/nav/ (TurtleBot3's file).
+COSTMAP_FILE = "costmap_common_params_burger.yaml"
 
 
 @dataclass(frozen=True)
@@ -34,7 +37,9 @@ def load_task_settings(path: Optional[Union[str, Path]] = None) -> TaskSettings:
 class EmbeddedSettings:
     travel: TravelModel
     default_profile: str
-    profiles: Dict[str, NoiseProfile]
+    profiles: Dict[str, NoiseProfile]   # config/noise_profiles.yaml, the simulator's too
+    collision_distance: float           # m between robot centres: two footprints' radii
+    collision_dt: float                 # s, time resolution of the proximity check
 
     def profile(self, name: Optional[str] = None) -> NoiseProfile:
         name = name or self.default_profile
@@ -43,23 +48,27 @@ class EmbeddedSettings:
         return self.profiles[name]
 
 
-def load_embedded_settings(path: Optional[Union[str, Path]] = None) -> EmbeddedSettings:
+def load_embedded_settings(path: Optional[Union[str, Path]] = None, noise_path: Optional[Union[str, Path]] = None,
+                           robot_path: Optional[Union[str, Path]] = None,
+                           nav_config_dir: Optional[Union[str, Path]] = None) -> EmbeddedSettings:
+    """config/task_embedded.yaml with the robot (config/robot_burger.yaml), the noise profiles
+    (config/noise_profiles.yaml) and the navigation's costmap file (config/nav/) it builds on."""
     root = read_yaml(path if path is not None else default_config_path("task_embedded.yaml"))
+    robot = load_robot(robot_path)
     travel = root.section("travel")
+    # The inflation the navigation's own costmaps use (the file robot_nav.launch loads into both).
+    costmap = read_yaml(Path(nav_config_dir if nav_config_dir is not None else default_config_path("nav"))
+                        / COSTMAP_FILE)
     model = TravelModel(
-        inscribed_radius=travel.number("inscribed_radius", minimum=0.0),
-        inflation_radius=travel.number("inflation_radius", minimum=0.0),
-        cost_scaling_factor=travel.number("cost_scaling_factor", minimum=0.0),
-        neutral_cost=travel.number("neutral_cost", minimum=1.0),
-        cost_factor=travel.number("cost_factor", minimum=0.0),
-        linear_speed=travel.number("linear_speed", minimum=1e-3),
-        angular_speed=travel.number("angular_speed", minimum=1e-3),
-        min_goal_time=travel.number("min_goal_time", minimum=1e-3),
+        inscribed_radius=robot.radius,
+        inflation_radius=costmap.number("inflation_radius", above=0.0),
+        cost_scaling_factor=costmap.number("cost_scaling_factor", above=0.0),
+        linear_speed=robot.max_linear_velocity,
+        angular_speed=travel.number("angular_speed", above=0.0),
+        min_goal_time=travel.number("min_goal_time", above=0.0),
     )
-    profiles_section = root.section("profiles")
-    profiles = {name: NoiseProfile.from_section(profiles_section.section(name)) for name in profiles_section.keys()}
-    if not profiles:
-        raise ConfigError(f"{root.source}: profiles: at least one profile is needed")
+    profiles = load_noise_profiles(noise_path)
     default = root.choice("profile", list(profiles))
+    collision_dt = root.number("collision_dt", above=0.0)
     root.check_all_used()
-    return EmbeddedSettings(model, default, profiles)
+    return EmbeddedSettings(model, default, profiles, 2.0 * robot.radius, collision_dt)

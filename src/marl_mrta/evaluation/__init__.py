@@ -1,1 +1,2 @@
-"""The evaluation command: methods through the environment, the paper's Tables 8–9, Gantt charts, benchmark."""
+"""The one episode loop and what is measured with it: policies over the environment, summaries
+(the paper's Tables 8–9), Gantt charts, the decentralised board, comparisons. No ROS."""

@@ -29,11 +29,15 @@ def run_episode(env: TaskAllocationEnv, policy: Policy, seed: int, episode: Opti
 
 
 def run_episodes(env: TaskAllocationEnv, policy: Policy, episodes: int, seed: int,
-                 progress: Optional[ProgressFn] = None, max_steps: int = MAX_STEPS) -> List[EpisodeRecord]:
-    """Episode k is reset with seed + k, so runs are reproducible and methods see the same noise draws."""
+                 progress: Optional[ProgressFn] = None, max_steps: int = MAX_STEPS,
+                 stop_on_abort: bool = False) -> List[EpisodeRecord]:
+    """Episode k is reset with seed + k, so runs are reproducible and methods see the same noise draws.
+    stop_on_abort: an aborted episode (a safety stop on real robots) is the run's last."""
     records: List[EpisodeRecord] = []
     for k in range(episodes):
         records.append(run_episode(env, policy, seed + k, k, max_steps))
         if progress is not None:
             progress(k + 1, episodes)
+        if stop_on_abort and records[-1].abort_reason:
+            break
     return records

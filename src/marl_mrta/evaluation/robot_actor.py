@@ -67,7 +67,7 @@ class RobotActor:
             raise ObservationError(f"claimed: {flags.size} values, the scenario has {n_tasks} tasks")
         if not self.policy.sequential:
             raise ObservationError("claimed: given, but this policy decides simultaneously (decision_order)")
-        return flags.astype(bool).reshape(1, -1)
+        return flags.reshape(1, -1)   # claimers (k + 1 = robot k's): the set actor reads whose trip it is
 
     def _rows(self, obs: Sequence[float], action_mask: Sequence[int]) -> Tuple[np.ndarray, Optional[np.ndarray]]:
         obs_row = np.asarray(obs, dtype=np.float32).reshape(1, -1)

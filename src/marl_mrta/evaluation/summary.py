@@ -33,15 +33,24 @@ class MethodSummary:
     decision_steps_sd: float
     logic_consistent_pct: float
     collisions_per_episode: float
-    ratio_to_exact: Optional[float]
+    ratio_to_exact: Optional[float]     # mean makespan ÷ the reference's best makespan (see ratio_basis)
     representative: int                 # episode index closest to the median makespan
     allocation: List[List[str]]         # task lists of the representative episode
+    ratio_basis: str = "exact"          # exact: the reference is a proven optimum | best known: it is not
+    ratio_to_lower_bound: Optional[float] = None   # mean makespan ÷ the reference's proven lower bound
 
     def as_dict(self) -> Dict[str, Any]:
         return dict(self.__dict__)
 
 
-def summarize(method: str, records: Sequence[EpisodeRecord], exact_makespan: Optional[float]) -> MethodSummary:
+def _ratio(value: float, reference: Optional[float]) -> Optional[float]:
+    return value / reference if reference and math.isfinite(reference) else None
+
+
+def summarize(method: str, records: Sequence[EpisodeRecord], exact_makespan: Optional[float],
+              lower_bound: Optional[float] = None, ratio_basis: str = "exact") -> MethodSummary:
+    """exact_makespan: the reference's best makespan (ratio_basis says whether it is proven
+    optimal); lower_bound: its proven lower bound."""
     makespans = [r.makespan for r in records]
     steps = [float(r.decision_steps) for r in records]
     mean, sd = _mean_sd(makespans)
@@ -52,7 +61,6 @@ def summarize(method: str, records: Sequence[EpisodeRecord], exact_makespan: Opt
     representative = min(range(len(records)), key=lambda k: (abs(makespans[k] - median), k))
     rep = records[representative]
     allocation = [[rep.task_ids[t] for t in tasks] for tasks in rep.robot_task_lists()]
-    ratio = mean / exact_makespan if exact_makespan and math.isfinite(exact_makespan) else None
     return MethodSummary(
         method=method, scenario=records[0].scenario, n_robots=n_robots, episodes=len(records),
         makespan_mean=mean, makespan_sd=sd,
@@ -60,7 +68,8 @@ def summarize(method: str, records: Sequence[EpisodeRecord], exact_makespan: Opt
         tasks_per_robot=per_robot, decision_steps_mean=steps_mean, decision_steps_sd=steps_sd,
         logic_consistent_pct=100.0 * sum(r.logic_consistent for r in records) / len(records),
         collisions_per_episode=sum(sum(r.collisions) for r in records) / len(records),
-        ratio_to_exact=ratio, representative=representative, allocation=allocation)
+        ratio_to_exact=_ratio(mean, exact_makespan), representative=representative, allocation=allocation,
+        ratio_basis=ratio_basis, ratio_to_lower_bound=_ratio(mean, lower_bound))
 
 
 class ProgressLine:
@@ -88,7 +97,7 @@ class ProgressLine:
 def format_table(summaries: Sequence[MethodSummary]) -> str:
     """The paper's Tables 8–9 as text: one row per method, then each method's allocation."""
     header = ("method", "robots", "makespan (s)", "complete", "tasks per robot", "steps/episode",
-              "logic-consistent", "collisions/ep", "ratio to exact")
+              "logic-consistent", "collisions/ep", f"ratio to {summaries[0].ratio_basis if summaries else 'exact'}")
     rows = []
     for s in summaries:
         rows.append((s.method, str(s.n_robots), f"{s.makespan_mean:.2f} ± {s.makespan_sd:.2f}",
@@ -121,11 +130,12 @@ def json_value(value: Any) -> Any:
 
 
 def method_report(method: str, records: Sequence[EpisodeRecord], categories: Sequence[str], gantt: Path,
-                  title: str, exact_makespan: Optional[float]) -> "tuple[MethodSummary, Dict[str, Any]]":
+                  title: str, exact_makespan: Optional[float], lower_bound: Optional[float] = None,
+                  ratio_basis: str = "exact") -> "tuple[MethodSummary, Dict[str, Any]]":
     """A method's summary, the Gantt chart of its representative episode (written to `gantt`) and
     the document part every result file carries: summary, chart path, representative episode."""
     from marl_mrta.evaluation.gantt import plot_gantt   # matplotlib only where a chart is drawn
-    summary = summarize(method, records, exact_makespan)
+    summary = summarize(method, records, exact_makespan, lower_bound, ratio_basis)
     plot_gantt(records[summary.representative], list(categories), gantt, title=title)
     return summary, {"summary": summary.as_dict(), "gantt": str(gantt),
                      "representative_episode": records[summary.representative].to_dict()}

@@ -16,7 +16,7 @@ from marl_mrta.mappo.runner import GreedyEvaluation
 def greedy_episodes(actor: ActorPolicy, env: TaskAllocationEnv, seeds: Sequence[int],
                     env_index: int = -1) -> List[EpisodeSummary]:
     """One greedy episode per seed on `env`, each summarised with its rewards."""
-    policy = LearnedPolicy(actor, env.n_agents)
+    policy = LearnedPolicy(actor.for_scenario(env.scenario), env.n_agents)
     summaries = []
     for seed in seeds:
         tally = EpisodeTally(env.n_agents)

@@ -1,14 +1,17 @@
 """Nominal travel times between a scenario's poses, from the navigation idea on the same map.
 
 The same chain the navigation stack uses, reduced to what a travel time needs:
-1. costmap_2d: occupied (and unknown) cells lethal 254; cells within the inscribed radius 253;
-   out to the inflation radius 252·exp(−cost_scaling_factor·(d − inscribed_radius)).
-2. navfn: Dijkstra over the 8-connected grid with cell cost 50 + 0.8·cost; cells of cost 253
-   and above are not traversable.
+1. costmap_2d: occupied (and unknown) cells lethal 254; cells within the robot's radius 253;
+   out to the inflation radius 252·exp(−cost_scaling_factor·(d − radius)), with the inflation
+   values of the navigation's own costmap file (config/nav/costmap_common_params_burger.yaml).
+2. navfn: Dijkstra over the 8-connected grid with cell cost 50 + 0.8·cost (navfn's constants,
+   as include/marl_mrta/nav/navfn_planner.h has them); cells of cost 253 and above are not
+   traversable.
 3. The cell path is straightened where a straight segment stays in cells no costlier than the
    path it replaces (navfn's gradient path is smooth, not a staircase), then measured.
 4. time = initial turn / ω + length / v + final turn / ω (turning in place, as DWA does when
-   the heading is far off), at least `min_goal_time` (a goal at the robot's pose still costs a
+   the heading is far off), v the Burger's top speed (config/robot_burger.yaml), ω the turning
+   speed the navigation achieves (config/task_embedded.yaml), at least `min_goal_time` (a goal at the robot's pose still costs a
    control cycle).
 
 Nodes: the robots' start poses first (node r = robot r), then the task goals (node n_robots + j).
@@ -34,18 +37,24 @@ LETHAL = 254
 INSCRIBED = 253
 
 
+#: navfn's cell cost: COST_NEUTRAL + COST_FACTOR·cost (NavfnPlanner::kCostNeutral, kCostFactor).
+NAVFN_NEUTRAL_COST = 50.0
+NAVFN_COST_FACTOR = 0.8
+
+
 @dataclass(frozen=True)
 class TravelModel:
-    """Navigation and Burger parameters of the travel-time model (config/task_embedded.yaml)."""
+    """Parameters of the travel-time model, each read from the file that owns it
+    (env/settings.py: the robot file, the navigation's costmap file, config/task_embedded.yaml)."""
 
-    inscribed_radius: float = 0.105      # m
-    inflation_radius: float = 1.0        # m
-    cost_scaling_factor: float = 3.0     # 1/m
-    neutral_cost: float = 50.0           # navfn COST_NEUTRAL
-    cost_factor: float = 0.8             # navfn COST_FACTOR
-    linear_speed: float = 0.22           # m/s, nominal v_eff
-    angular_speed: float = 2.84          # rad/s, turning in place
-    min_goal_time: float = 0.1           # s
+    inscribed_radius: float              # m, the robot's radius (config/robot_burger.yaml)
+    inflation_radius: float              # m (config/nav/costmap_common_params_burger.yaml)
+    cost_scaling_factor: float           # 1/m (the same file)
+    linear_speed: float                  # m/s, the robot's top speed (config/robot_burger.yaml)
+    angular_speed: float                 # rad/s, effective turning in place (config/task_embedded.yaml)
+    min_goal_time: float                 # s (config/task_embedded.yaml)
+    neutral_cost: float = NAVFN_NEUTRAL_COST
+    cost_factor: float = NAVFN_COST_FACTOR
 
 
 @dataclass

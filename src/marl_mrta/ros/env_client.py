@@ -57,11 +57,20 @@ class RosTaskEnvClient:
         self.n_actions = int(env["n_actions"])
         self.obs_dim = int(env["obs_dim"])
         self.state_dim = int(env["state_dim"])
+        self.mode = str(env.get("mode", "simulation"))   # simulation | real (real robots or the stand-in)
 
     @property
     def noise_profile(self) -> str:
-        """The simulator's noise profile (what the episodes ran under; the simulator node is /simulator)."""
+        """The simulator's noise profile (what the episodes ran under; the simulator node is /simulator);
+        `real` for real robots."""
+        if self.mode == "real":
+            return "real"
         return str(rospy.get_param("/simulator/noise_profile", "unknown"))
+
+    @property
+    def stops_on_abort(self) -> bool:
+        """Real robots: an aborted episode is a safety stop, after which no episode starts by itself."""
+        return self.mode == "real"
 
     @property
     def scenario_path(self) -> Path:
