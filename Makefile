@@ -2,6 +2,7 @@
 #   make demo   set up, build, run the main job on the default scenario, write results/
 #   make test   set up, build, run every test (gtest, pytest, rostest)
 #   make bench  run the benchmarks, write results/*.json and print a table
+#   make stock-nav [NAV_SRC=clone-or-tarball]  build the stock navigation stack for nav:=stock
 SHELL := /bin/bash
 .SHELLFLAGS := -eo pipefail -c
 .DEFAULT_GOAL := help
@@ -17,13 +18,21 @@ else
   WS ?= $(PKG_DIR)/.ws
 endif
 JOBS ?= $(shell nproc)
+# The stock navigation stack's source (docs/navigation.md): a clone of ros-planning/navigation
+# (noetic-devel) or a tarball of one; by default the one `make stock-nav` last built for this
+# workspace, else the tarball in ../shared. Built in a workspace of its own (tools/stock_nav.sh)
+# that the project's workspace then overlays.
+STOCK_NAV_SOURCE_FILE := $(WS)/build/.stock_nav_source
+NAV_SRC ?= $(firstword $(shell cat $(STOCK_NAV_SOURCE_FILE) 2>/dev/null) $(wildcard $(PKG_DIR)/../shared/external/navigation_noetic/navigation_noetic.tar.gz))
+NAV_SRC_PATH := $(if $(NAV_SRC),$(abspath $(NAV_SRC)))
+STOCK_NAV := bash $(PKG_DIR)/tools/stock_nav.sh
 
 # /usr/bin before any other python3 (ROS runs on the system interpreter); the venv adds torch & co.
 export PATH := $(VENV)/bin:/usr/bin:/bin:$(PATH)
 ROS_ENV := source $(WS)/devel/setup.bash
 CATKIN_ARGS := -DPYTHON_EXECUTABLE=$(VENV)/bin/python3 -DCMAKE_BUILD_TYPE=Release -DCATKIN_ENABLE_TESTING=ON
 
-.PHONY: help setup workspace build test demo bench lint clean
+.PHONY: help setup workspace build test demo bench lint clean stock-nav stock-nav-if-source
 help:
 	@sed -n '2,5p' $(PKG_DIR)/Makefile | sed 's/^# *//'
 
@@ -35,8 +44,21 @@ ifneq ($(WS),$(ENCLOSING_WS))
 	@bash $(PKG_DIR)/tools/workspace_view.sh $(PKG_DIR) $(WS)
 endif
 
-build: setup workspace
-	@cd $(WS) && catkin_make -j$(JOBS) $(CATKIN_ARGS)
+stock-nav: setup
+	@$(STOCK_NAV) build "$(NAV_SRC_PATH)"
+	@mkdir -p $(WS)/build && echo "$(NAV_SRC_PATH)" >$(STOCK_NAV_SOURCE_FILE)
+
+# make test builds the stock stack first when there is a source (its tests skip without it).
+stock-nav-if-source: setup
+	@$(if $(wildcard $(NAV_SRC_PATH)),$(STOCK_NAV) build "$(NAV_SRC_PATH)",echo "stock-nav: no source (make stock-nav NAV_SRC=...): the stock navigation tests will skip")
+
+# With a stock navigation workspace built, the project's workspace overlays it; catkin fixes its
+# underlays when cmake runs, so a change of underlay (built, removed) re-runs cmake.
+build: setup workspace $(if $(filter test,$(MAKECMDGOALS)),stock-nav-if-source)
+	@underlay=$$($(STOCK_NAV) setup-file "$(NAV_SRC_PATH)"); stamp=$(WS)/build/.stock_nav_underlay; \
+	  if [ -n "$$underlay" ]; then source "$$underlay"; fi; \
+	  force=; [ "$$(cat $$stamp 2>/dev/null)" = "$$underlay" ] || force=--force-cmake; \
+	  cd $(WS) && catkin_make -j$(JOBS) $(CATKIN_ARGS) $$force && echo "$$underlay" >$$stamp
 
 test: build
 	@rm -rf $(WS)/build/test_results/marl_mrta

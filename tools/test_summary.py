@@ -3,34 +3,58 @@
 Exits 1 when a test failed. That includes a result file that is empty or truncated: a test node
 that died before writing its results (e.g. shut down with its launch). rostest and
 catkin_test_results count such a test as passed.
+
+Skipped tests are listed first, one line each with the reason. A rostest writes two files: the
+test node's (rosunit-NAME.xml, its test cases) and rostest's own (one case, testNAME: the node ran
+and wrote results). When every case of the node's file is skipped, rostest's case counts as
+skipped too, not as passed.
 """
 import sys
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
 
-def count(results_dir: Path):
+def _cases(root):
+    suites = [root] if root.tag == "testsuite" else root.iter("testsuite")
+    for suite in suites:
+        yield from suite.iter("testcase")
+
+
+def count(results_dir: Path, skip_lines=None):
     passed = failed = skipped = 0
+    documents = []
     for xml_file in sorted(results_dir.rglob("*.xml")):
         try:
-            root = ET.parse(xml_file).getroot()
+            documents.append((xml_file, ET.parse(xml_file).getroot()))
         except ET.ParseError:
             failed += 1  # a truncated result file means the test process died
-            continue
-        suites = [root] if root.tag == "testsuite" else root.iter("testsuite")
-        for suite in suites:
-            for case in suite.iter("testcase"):
-                if case.find("failure") is not None or case.find("error") is not None:
-                    failed += 1
-                elif case.find("skipped") is not None:
-                    skipped += 1
-                else:
-                    passed += 1
+    skipped_nodes = set()
+    for xml_file, root in documents:
+        cases = list(_cases(root))
+        if xml_file.name.startswith("rosunit-") and cases and all(c.find("skipped") is not None for c in cases):
+            skipped_nodes.add(xml_file.stem[len("rosunit-"):])
+    for xml_file, root in documents:
+        rostest_file = xml_file.name.startswith("rostest-")
+        for case in _cases(root):
+            if case.find("failure") is not None or case.find("error") is not None:
+                failed += 1
+            elif case.find("skipped") is not None:
+                skipped += 1
+                if skip_lines is not None:
+                    reason = case.find("skipped").get("message") or (case.find("skipped").text or "").strip()
+                    skip_lines.append("skipped: " + case.get("name", "") + (": " + reason.splitlines()[0] if reason else ""))
+            elif rostest_file and case.get("name", "").startswith("test") and case.get("name")[4:] in skipped_nodes:
+                skipped += 1
+            else:
+                passed += 1
     return passed, failed, skipped
 
 
 def main(argv) -> int:
-    passed, failed, skipped = count(Path(argv[0]))
+    skip_lines = []
+    passed, failed, skipped = count(Path(argv[0]), skip_lines)
+    for line in skip_lines:
+        print(line)
     print(f"tests: {passed} passed, {failed} failed, {skipped} skipped")
     return 1 if failed else 0
 

@@ -65,6 +65,21 @@ def test_stock_branch_launches_move_base_amcl_with_the_same_files():
     assert dict(amcl.remap_args)["map"] == "/map"
 
 
+def test_builtin_amcl_gets_the_parameters_stock_amcl_gets():
+    args = ["ns:=tb3_0", "localization:=amcl", "initial_pose_x:=0.5", "initial_pose_y:=4.5"]
+    builtin_nodes, builtin = load("launch/include/robot_nav.launch", "nav:=builtin", *args)
+    stock_nodes, stock = load("launch/include/robot_nav.launch", "nav:=stock", *args)
+    amcl = builtin_nodes["/tb3_0/amcl"]
+    assert (amcl.package, amcl.type) == ("marl_mrta", "amcl")
+    assert (stock_nodes["/tb3_0/amcl"].package, stock_nodes["/tb3_0/amcl"].type) == ("amcl", "amcl")
+    amcl_params = {k: v for k, v in builtin.items() if k.startswith("/tb3_0/amcl/")}
+    assert amcl_params == {k: v for k, v in stock.items() if k.startswith("/tb3_0/amcl/")}
+    assert amcl_params["/tb3_0/amcl/base_frame_id"] == "tb3_0/base_footprint"
+    assert amcl_params["/tb3_0/amcl/initial_pose_x"] == 0.5
+    assert amcl_params["/tb3_0/amcl/laser_model_type"] == "likelihood_field"
+    assert dict(amcl.remap_args) == dict(stock_nodes["/tb3_0/amcl"].remap_args)
+
+
 def test_builtin_and_stock_get_the_same_parameters():
     _, builtin = load("launch/include/robot_nav.launch", "ns:=tb3_1", "nav:=builtin")
     builtin_nodes, _ = load("launch/include/robot_nav.launch", "ns:=tb3_1", "nav:=builtin")
@@ -118,6 +133,10 @@ def test_evaluation_launch_files_pass_navigation_lockstep_and_noise_on(launch_ar
     assert params["/simulator/publish_localization"] is False
     assert params["/simulator/lockstep"] is False
     assert params["/simulator/noise_profile"] == "measured_tb3"
+    # nav:=stock alone: real time without lock-step (stock move_base does not answer ticks).
+    nodes, params = load(*launch_args, "nav:=stock")
+    assert nodes["/tb3_0/move_base"].package == "move_base"
+    assert (params["/simulator/lockstep"], params["/simulator/rtf"]) == (False, 1.0)
 
 
 def test_nodelets_put_the_simulator_and_every_builtin_move_base_in_one_manager():
@@ -143,17 +162,21 @@ def test_nodelets_put_the_simulator_and_every_builtin_move_base_in_one_manager()
     assert (nodes["/tb3_0/move_base"].package, nodes["/tb3_0/move_base"].type) == ("marl_mrta", "move_base")
     assert (nodes["/map_server"].package, nodes["/map_server"].type) == ("marl_mrta", "map_server")
     # The stock move_base is no nodelet: a node of its own even beside the manager.
-    nodes, _ = load("launch/tasks.launch", "nav:=stock", "lockstep:=false")
+    nodes, params = load("launch/tasks.launch", "nav:=stock", "lockstep:=false")
     assert nodes["/tb3_0/move_base"].package == "move_base"
+    # ... and the manager starts steps on the next tick, not the next whole second, which it
+    # would reach by stepping the paused simulator in one burst that stock move_base cannot follow.
+    assert params["/rl_task_allocation_manager/align_period"] == 0.0
+    _, params = load("launch/tasks.launch")
+    assert params["/rl_task_allocation_manager/align_period"] == 1.0
 
 
-def test_nav_auto_picks_builtin_without_move_base(monkeypatch):
+def test_nav_auto_picks_stock_with_move_base_else_builtin():
     import rospkg
-    if "move_base" in rospkg.RosPack().list():
-        pytest.skip("move_base is installed here: auto picks stock")
+    installed = "move_base" in rospkg.RosPack().list()  # e.g. after make stock-nav, or on Noetic
     nodes, _ = load("launch/nav.launch", "robots:=1")
-    assert nodes["/map_server"].package == "marl_mrta"
-    assert nodes["/tb3_0/move_base"].package == "marl_mrta"
+    assert nodes["/map_server"].package == ("map_server" if installed else "marl_mrta")
+    assert nodes["/tb3_0/move_base"].package == ("move_base" if installed else "marl_mrta")
 
 
 @pytest.mark.parametrize("launch_file", LAUNCH_FILES)

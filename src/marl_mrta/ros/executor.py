@@ -31,9 +31,15 @@ from std_srvs.srv import Empty
 from marl_mrta.env.executor import RobotOutcome, StepOutcome
 from marl_mrta.model.scenario import Scenario
 from marl_mrta.ros.manager_settings import RosExecutorSettings
-from marl_mrta.ros.move_base_link import MoveBaseLink
+from marl_mrta.ros.localization_link import LocalizationLink
+from marl_mrta.ros.move_base_link import MoveBaseLink, await_accepted, cancel_running, send_goals
 from marl_mrta.ros.sim_clock import SimClock, SimulatorLost, call_bounded, wait_wall
 from marl_mrta.ros.sim_link import SimulatorLink
+
+
+#: s of sim time between the requests for an update without motion while amcl has not answered a
+#: reset (about a scan period of TurtleBot3's LDS-01).
+NOMOTION_PERIOD = 0.2
 
 
 def _elapsed(since: float, until: float) -> float:
@@ -57,6 +63,9 @@ class RosExecutor:
         # while the robot namespaces (arena_k/tb3_i) are the simulator's, from the root.
         self.bases = [MoveBaseLink("/" + ns, settings.map_frame) for ns in self.namespaces]
         self.clock = SimClock(settings.simulator_lost_after, diagnose=self._diagnose)
+        # amcl (stock or built-in) is told every reset pose; ground-truth localisation needs nothing.
+        self.localizers = [LocalizationLink("/" + ns, settings.map_frame) for ns in self.namespaces] \
+            if settings.localization == "amcl" else []
         self._starts = [(r.start.x, r.start.y, r.start.yaw) for r in scenario.robots]
         self._step_start = 0.0
         self._lost: Optional[str] = None   # set when a step was aborted: the next reset tries again
@@ -68,6 +77,8 @@ class RosExecutor:
         config = self.sim.wait_ready(self.settings.graph_wait)
         for base in self.bases:
             wait_wall(base.connected, self.settings.graph_wait, f"{base.server_name} did not connect")
+        for link in self.localizers:
+            wait_wall(link.connected, self.settings.graph_wait, f"{link.namespace}/amcl did not subscribe to initialpose")
         self._pause(True)
         self._await_first_answers()
         rospy.loginfo("simulator at %.0f Hz%s; move_base of %s connected", config.physics_rate,
@@ -111,7 +122,46 @@ class RosExecutor:
         self.sim.forget_poses()
         tick, stamp = self._advance(1)   # publishes the reset state
         self.sim.wait_caught_up(tick, stamp)
+        if self.localizers:
+            self._relocalise()
         self._lost = None
+
+    def _relocalise(self) -> None:
+        """Tells every robot's amcl its reset pose, then lets sim time run (the robots stand still)
+        until each amcl_pose agrees with it. amcl answers on wall time, so the ticks this takes
+        vary from run to run: episodes with amcl repeat only up to that (docs/navigation.md)."""
+        for link, start in zip(self.localizers, self._starts):
+            link.reinitialise(start)
+        s = self.settings
+        rate = self.sim.config.physics_rate
+        budget_ticks = int(math.ceil(s.localization_wait * rate))
+        for waited in range(budget_ticks):
+            errors = [link.error_to(start) for link, start in zip(self.localizers, self._starts)]
+            if waited % max(1, int(round(NOMOTION_PERIOD * rate))) == 0:
+                for link, error in zip(self.localizers, errors):
+                    if error is None:
+                        link.request_update()
+            if all(e is not None and e[0] <= s.localization_tolerance_xy and e[1] <= s.localization_tolerance_yaw
+                   for e in errors):
+                # amcl future-dates map -> odom by its transform_tolerance: until that has passed,
+                # a lookup could still blend in a transform of the odometry from before the reset.
+                settle = int(math.ceil(s.localization_settle * rate))
+                if settle:
+                    self.sim.wait_caught_up(*self._advance(settle))
+                return
+            tick, stamp = self._advance(1)
+            self.sim.wait_caught_up(tick, stamp)
+            time.sleep(0.01)   # wall time for amcl to take the tick's scan
+        lost = []
+        for link, start in zip(self.localizers, self._starts):
+            error = link.error_to(start)
+            if error is None:
+                lost.append(f"{link.namespace}: no amcl_pose since the reset")
+            elif error[0] > s.localization_tolerance_xy or error[1] > s.localization_tolerance_yaw:
+                lost.append(f"{link.namespace}: amcl_pose {error[0]:.2f} m / {error[1]:.2f} rad off")
+        raise SimulatorLost(f"{'; '.join(lost)}: amcl_pose did not agree with the reset pose within "
+                            f"{s.localization_tolerance_xy:g} m / {s.localization_tolerance_yaw:g} rad after "
+                            f"{s.localization_wait:g} s of sim time")
 
     def start_step(self, goals: Sequence[Optional[int]], time_limit: float) -> StepOutcome:
         if self._lost is not None:
@@ -123,16 +173,11 @@ class RosExecutor:
         if self.shared_clock:
             t0 = max(t0, self.clock.now())   # time has run on since the aligned tick
         self._step_start = t0
-        pending = [i for i, g in enumerate(goals) if g is not None]
-        for i in pending:
-            goal = self.scenario.tasks[goals[i]].goal
-            self.bases[i].send(goal.x, goal.y, goal.yaw)
+        pending = send_goals(self.bases, self.scenario.tasks, goals)
         limit = min(time_limit, self.settings.goal_timeout)
         deadline = t0 + limit
         try:
-            wait_wall(lambda: all(self.bases[i].accepted for i in pending), self.settings.simulator_lost_after,
-                      lambda: "move_base of " + ", ".join(self.namespaces[i] for i in pending
-                                                          if not self.bases[i].accepted) + " did not take its goal")
+            await_accepted(self.bases, pending, self.settings.simulator_lost_after)
             watched = [i for i in pending if self.bases[i].result is None and self._reports_goal_ends(i)]
             self._run_until(deadline, watched)
             if self.clock.wait_until(lambda: all(self.bases[i].result is not None for i in pending), deadline):
@@ -244,11 +289,7 @@ class RosExecutor:
 
     def _cancel_running(self) -> None:
         """Cancels every goal still running and waits until move_base has stopped it."""
-        running = [base for base in self.bases if not base.idle]
-        for base in running:
-            base.cancel()
-        wait_wall(lambda: all(base.idle for base in running), self.settings.simulator_lost_after,
-                  "move_base did not confirm a cancelled goal")
+        cancel_running(self.bases, self.settings.simulator_lost_after)
 
     def _aborted(self, goals: Sequence[Optional[int]], t0: Optional[float], reason: str) -> StepOutcome:
         """The step cannot go on: stop what can be stopped, report every robot as failed."""

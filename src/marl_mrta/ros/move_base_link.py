@@ -12,11 +12,13 @@ import math
 import threading
 import time
 from dataclasses import dataclass
-from typing import Optional
+from typing import Callable, List, Optional, Sequence
 
 import rospy
 from actionlib_msgs.msg import GoalID, GoalStatus, GoalStatusArray
 from move_base_msgs.msg import MoveBaseActionGoal, MoveBaseActionResult
+
+from marl_mrta.ros.sim_clock import wait_wall
 
 _TERMINAL = {GoalStatus.PREEMPTED, GoalStatus.SUCCEEDED, GoalStatus.ABORTED, GoalStatus.REJECTED,
              GoalStatus.RECALLED, GoalStatus.LOST}
@@ -91,6 +93,11 @@ class MoveBaseLink:
         if goal_id is not None:
             self._cancel_pub.publish(GoalID(id=goal_id))
 
+    def cancel_all(self) -> None:
+        """Cancels every goal of this move_base, whoever sent it (an empty id: actionlib's
+        cancel-all), e.g. to stop the robot whatever it was told."""
+        self._cancel_pub.publish(GoalID())
+
     def forget(self) -> None:
         with self._lock:
             self.goal_id, self.accepted, self.result = None, False, None
@@ -114,3 +121,30 @@ class MoveBaseLink:
                 return
             self.accepted = True
             self.result = GoalResult(msg.status.status, msg.status.text, msg.header.stamp.to_sec())
+
+
+def send_goals(bases: Sequence["MoveBaseLink"], tasks, goals: Sequence[Optional[int]]) -> List[int]:
+    """Sends robot i the goal pose of task goals[i] (None: no goal); returns the robots given one."""
+    pending = [i for i, g in enumerate(goals) if g is not None]
+    for i in pending:
+        goal = tasks[goals[i]].goal
+        bases[i].send(goal.x, goal.y, goal.yaw)
+    return pending
+
+
+def await_accepted(bases: Sequence["MoveBaseLink"], robots: Sequence[int], timeout_wall: float,
+                   stop: Callable[[], bool] = lambda: False) -> None:
+    """Waits until the move_base of every robot in `robots` took its goal (or `stop()`); raises
+    SimulatorLost naming those that did not within `timeout_wall` s."""
+    wait_wall(lambda: stop() or all(bases[i].accepted for i in robots), timeout_wall,
+              lambda: "move_base of " + ", ".join(bases[i].namespace.lstrip("/") for i in robots
+                                                  if not bases[i].accepted) + " did not take its goal")
+
+
+def cancel_running(bases: Sequence["MoveBaseLink"], timeout_wall: float) -> None:
+    """Cancels every goal still running and waits until its move_base has stopped it (its result
+    came); raises SimulatorLost after `timeout_wall` s."""
+    running = [base for base in bases if not base.idle]
+    for base in running:
+        base.cancel()
+    wait_wall(lambda: all(base.idle for base in running), timeout_wall, "move_base did not confirm a cancelled goal")
