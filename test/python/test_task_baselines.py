@@ -1,6 +1,9 @@
 """Baselines: the exact solver equals brute-force enumeration (through model/rules.py) on random
-small instances; its batched rules equal the scalar rules; plans replay in the environment to
-their predicted makespan; the GA reaches the optimum on lab_2r; auction and random behave."""
+small instances; its batched rules equal the scalar rules (goal timeout included); plans replay
+in the environment to their predicted makespan; the GA reaches the optimum on lab_2r; the
+decoder of task lists never deadlocks nor breaks the order and passes over finished goals when a
+leg exceeds the goal timeout; the plan replay finishes what a plan leaves open; auction and
+random behave."""
 import itertools
 import math
 import random
@@ -12,7 +15,7 @@ import pytest
 from marl_mrta.baselines.auction import solve_auction
 from marl_mrta.baselines.exact import BatchedRules, solve_exact
 from marl_mrta.baselines.ga import solve_ga
-from marl_mrta.baselines.plan import SchedulingInstance, decode_task_lists
+from marl_mrta.baselines.plan import NominalRun, Plan, SchedulingInstance, decode_task_lists
 from marl_mrta.baselines.random_policy import RandomPolicy
 from marl_mrta.baselines.settings import load_baseline_settings
 from marl_mrta.env.factory import make_env
@@ -139,6 +142,12 @@ def test_ga_reaches_the_exact_optimum_on_lab_2r_in_9_of_10_seeds(lab_2r):
     assert hits >= 9
 
 
+def test_the_ga_hill_climb_trades_two_robots_last_stages():
+    from marl_mrta.baselines.ga import _neighbours, join
+    crossed = join([[0, 1, 6, 7], [2, 3, 4, 5]])   # lab_2r's local optimum: no single move or swap turns it into the optimum
+    assert join([[0, 1, 4, 5], [2, 3, 6, 7]]) in set(_neighbours(crossed))
+
+
 def test_ga_is_deterministic_per_seed(lab_2r):
     _, inst = lab_2r
     a, b = solve_ga(inst, seed=3), solve_ga(inst, seed=3)
@@ -172,3 +181,76 @@ def test_random_baseline_picks_only_open_tasks(lab_2r):
         for step, actions in enumerate(record.joint_actions):
             assert all(a is not None and a not in done_before for a in actions)
             done_before |= {e.task for e in record.entries if e.step == step and e.finished}
+
+
+def test_decoder_resolves_lists_that_wait_on_each_other(lab_2r):
+    """R0 is told B2 then A1, R1 B1 then A2: each head waits on the other robot's second task.
+    The decoder takes the ready tasks first instead of waiting forever or breaking the order."""
+    env, inst = lab_2r
+    index = {name: inst.task_ids.index(name) for name in ("A1", "A2", "B1", "B2")}
+    rest = [j for j in range(inst.n_tasks) if j not in index.values()]
+    run = decode_task_lists(inst, [[index["B2"], index["A1"]] + rest[:2], [index["B1"], index["A2"]] + rest[2:]])
+    assert run.complete and run.violations == 0
+
+
+def test_decoder_passes_over_finished_goals_when_a_leg_exceeds_the_goal_timeout():
+    """Task 1's goal is beyond the goal timeout from the start, within it from task 0's goal."""
+    travel = np.array([[0.1, 5.0, 50.0], [5.0, 0.1, 5.0], [50.0, 5.0, 0.1]])
+    inst = SchedulingInstance(1, 2, travel, (0.0, 0.0), ((), ()), 1.0, goal_timeout=20.0)
+    run = decode_task_lists(inst, [[1, 0]])
+    assert run.complete and run.violations == 0 and run.elapsed == pytest.approx(10.0)
+    assert solve_exact(inst).makespan == pytest.approx(10.0)
+
+
+def test_plan_replay_finishes_what_the_plan_does_not_cover(lab_2r):
+    env, inst = lab_2r
+    empty = Plan("empty", [[] for _ in range(inst.n_robots)], [], math.inf, 0, instance=inst)
+    record = run_episodes(env, PlanPolicy(empty, env.n_agents, env.n_tasks), 1, 0)[0]
+    assert record.complete and record.logic_consistent
+
+
+def test_batched_rules_exclude_exactly_the_moves_that_fail_at_the_goal_timeout():
+    rng = random.Random(8)
+    for trial in range(10):
+        inst = random_instance(rng, 2, 3, whole_seconds=trial % 2 == 1)
+        inst = SchedulingInstance(inst.n_robots, inst.n_tasks, inst.travel, inst.service, inst.predecessors,
+                                  inst.min_step, goal_timeout=5.0)
+        rules = BatchedRules(inst)
+        done = np.zeros(inst.n_tasks, dtype=bool)
+        valid, duration, _, _ = rules.evaluate(done, np.arange(inst.n_robots))
+        run = NominalRun(inst)
+        for b, action in enumerate(rules.actions):
+            goals = [int(a) if a < inst.n_tasks else None for a in action]
+            step = run.preview(goals)
+            legal = all(r or g is None for r, g in zip(step.reached, goals)) and \
+                all(step.correct_order[f.robot] for f in step.finished)
+            assert valid[b] == legal
+            if legal:
+                assert duration[b] == pytest.approx(step.duration)
+
+
+def test_task_lists_whose_robot_swings_between_two_goals_still_decode_to_a_complete_schedule():
+    # site_8r: robot 7 heads for task 10 (its predecessor 3 is last in its own list) over goal 4,
+    # while its way to the ready task 12 leads back over goal 7; without the stalled rule the
+    # decoder swung between the two for ever.
+    from marl_mrta.baselines.reference import scheduling_instance
+    env = make_env(ROOT / "scenarios" / "site_8r.xml")
+    instance = scheduling_instance(env.scenario, env.settings.min_step, env.settings.goal_timeout)
+    lists = [[15], [1, 4], [], [], [14, 13, 8, 2, 9, 6], [11], [], [10, 5, 0, 12, 7, 3]]
+    run = decode_task_lists(instance, lists)
+    assert run.complete and run.violations == 0
+    assert len(run.joint_actions) < 40
+
+
+def test_random_task_lists_always_decode_within_the_step_bound():
+    from marl_mrta.baselines.reference import scheduling_instance
+    env = make_env(ROOT / "scenarios" / "site_8r.xml")
+    instance = scheduling_instance(env.scenario, env.settings.min_step, env.settings.goal_timeout)
+    rng = random.Random(3)
+    for _ in range(200):
+        order = list(range(instance.n_tasks))
+        rng.shuffle(order)
+        cuts = sorted(rng.randint(0, instance.n_tasks) for _ in range(instance.n_robots - 1))
+        bounds = [0] + cuts + [instance.n_tasks]
+        run = decode_task_lists(instance, [order[bounds[r]:bounds[r + 1]] for r in range(instance.n_robots)])
+        assert run.complete and run.violations == 0

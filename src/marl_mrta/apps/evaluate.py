@@ -4,8 +4,11 @@
              --executor embedded --seed 0 --out results/eval_lab_2r.json
     evaluate --method exact --episodes 5 --executor ros     # through a running task manager (tasks.launch)
 
-Writes the JSON (summaries, plans, the exact reference, representative episodes) and one
-Gantt chart PNG per method (<out stem>_<method>_gantt.png). Bad input -> one line, exit 2.
+Writes the JSON (summaries, plans, the reference: best known makespan, proven lower bound and
+gap, representative episodes) and one Gantt chart PNG per method (<out stem>_<method>_gantt.png).
+Every solver runs within its budget (config/task_baselines.yaml; --time-limit, --workers); one
+that reaches it says so in one line and its result counts as not proven. Bad input -> one
+line, exit 2.
 """
 from __future__ import annotations
 
@@ -20,7 +23,7 @@ from marl_mrta.baselines.auction import solve_auction
 from marl_mrta.baselines.ga import solve_ga
 from marl_mrta.baselines.plan import Plan, SchedulingInstance
 from marl_mrta.baselines.random_policy import RandomPolicy
-from marl_mrta.baselines.reference import exact_reference, scheduling_instance
+from marl_mrta.baselines.reference import Reference, scheduling_instance, solve_reference
 from marl_mrta.baselines.settings import load_baseline_settings
 from marl_mrta.common.config import ConfigError
 from marl_mrta.common.paths import package_root
@@ -56,12 +59,18 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> argparse.Namespace:
     parser.add_argument("--profile", default=None,
                         help="embedded noise profile of config/task_embedded.yaml (default: its `profile`)")
     parser.add_argument("--mask", default=None, choices=MASK_MODES, help="action masks (default: config/task.yaml)")
-    parser.add_argument("--policy", default=None, help="actor file for --method policy")
+    parser.add_argument("--policy", default=None,
+                        help="actor file for --method policy (an MLP actor: its scenario; a set actor: any scenario)")
     parser.add_argument("--seed", type=int, default=0, help="seed of episodes and planners (default 0)")
     parser.add_argument("--out", default=None,
                         help="JSON output file, or a directory for the default name "
                              "(default results/evaluate_<scenario>_<methods>.json)")
     parser.add_argument("--no-exact", action="store_true", help="skip the exact reference (no ratio column)")
+    parser.add_argument("--time-limit", type=float, default=None,
+                        help="s of CP-SAT deterministic time per model of the reference (default: config/task_baselines.yaml)")
+    parser.add_argument("--workers", type=int, default=None,
+                        help="CP-SAT search workers (default: config/task_baselines.yaml; more than one may return "
+                             "another plan of the same optimum)")
     parser.add_argument("--quiet", action="store_true", help="no progress line")
     # roslaunch appends remappings (__name:=..., __log:=...) to a node's command line.
     args = parser.parse_args([a for a in (sys.argv[1:] if argv is None else argv) if ":=" not in a])
@@ -73,6 +82,10 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> argparse.Namespace:
         raise UsageError(f"--episodes: must be at least 1, got {args.episodes}")
     if "policy" in methods and not args.policy:
         raise UsageError("--policy: the policy method needs an actor file (--policy path/to/actor.pt)")
+    if args.time_limit is not None and not args.time_limit > 0:
+        raise UsageError(f"--time-limit: must be positive, got {args.time_limit:g}")
+    if args.workers is not None and args.workers < 1:
+        raise UsageError(f"--workers: must be at least 1, got {args.workers}")
     if args.executor == "ros" and args.profile:
         raise UsageError("--profile: noise profiles belong to the embedded executor (the simulator has its own)")
     args.methods = methods
@@ -96,9 +109,15 @@ def plan_for(method: str, instance: SchedulingInstance, settings, seed: int) -> 
         return solve_ga(instance, settings.ga, seed=seed)
     if method == "auction":
         return solve_auction(instance, settings.auction_objective)
-    if method == "exact":
-        return exact_reference(instance, settings)
     raise ValueError(method)
+
+
+def ratio_note(reference: Reference) -> str:
+    """Which makespan the ratios divide by."""
+    if reference.proven_optimal:
+        return f"ratios: makespan / the proven optimum {reference.best_makespan:.2f} s"
+    return (f"ratios: makespan / the best known {reference.best_makespan:.2f} s ({reference.best_source}; not proven "
+            f"optimal: lower bound {reference.lower_bound:.2f} s, gap {100 * reference.gap:.1f} %)")
 
 
 def plan_json(plan: Plan, task_ids: Sequence[str]) -> Dict[str, Any]:
@@ -135,37 +154,46 @@ def evaluate(args: argparse.Namespace) -> int:
         env = make_env(args.scenario or DEFAULT_SCENARIO, args.executor, profile=args.profile, mask=args.mask,
                        seed=args.seed)
     scenario = env.scenario
-    settings = load_baseline_settings()
-    instance = scheduling_instance(scenario, env.settings.min_step)
-    task_ids = [t.id for t in scenario.tasks]
-
-    exact_plan: Optional[Plan] = None
-    if not args.no_exact or "exact" in args.methods:
-        started = time.monotonic()
-        exact_plan = exact_reference(instance, settings)
-        state = "proven optimal" if exact_plan.proven_optimal else "NOT proven (search limit)"
-        print(f"exact reference: {exact_plan.makespan:.2f} s, {state}, "
-              f"{exact_plan.details.get('expansions')} expansions, {time.monotonic() - started:.2f} s", file=sys.stderr)
-    exact_makespan = exact_plan.makespan if exact_plan is not None and exact_plan.proven_optimal else None
-
     out = output_path(args, scenario.name)
+    settings = load_baseline_settings().with_cpsat(args.time_limit, args.workers)
+    instance = scheduling_instance(scenario, env.settings.min_step, env.settings.goal_timeout)
+    task_ids = [t.id for t in scenario.tasks]
+    plans: Dict[str, Plan] = {m: plan_for(m, instance, settings, args.seed) for m in args.methods if m in ("ga", "auction")}
+
+    reference: Optional[Reference] = None
+    if not args.no_exact or "exact" in args.methods:
+        reference = solve_reference(instance, settings, candidates=list(plans.values()))
+        for line in reference.log:
+            print(f"  {line}", file=sys.stderr)
+        print(reference.describe(), file=sys.stderr)
+        plans["exact"] = reference.plan
+    best = reference.best_makespan if reference is not None else None
+    lower = reference.lower_bound if reference is not None else None
+    basis = "exact" if reference is None or reference.proven_optimal else "best known"
+
     summaries, results = [], []
+    stop_on_abort = getattr(env, "stops_on_abort", False)   # real robots: a safety stop ends the run
+    aborted = ""
     for method in args.methods:
-        plan = None
+        if aborted:
+            break
+        plan = plans.get(method)
         if method == "random":
             policy = RandomPolicy(env.n_agents, env.n_tasks, settings.random_choice, seed=args.seed)
         elif method == "policy":
-            policy = LearnedPolicy.from_file(args.policy, env.n_agents, env.obs_dim, env.n_actions, seed=args.seed)
+            policy = LearnedPolicy.from_file(args.policy, env.n_agents, env.obs_dim, env.n_actions, seed=args.seed,
+                                             scenario=scenario)
         else:
-            plan = exact_plan if method == "exact" else plan_for(method, instance, settings, args.seed)
             policy = PlanPolicy(plan, env.n_agents, env.n_tasks)
         progress = None if args.quiet else ProgressLine(f"{method} on {scenario.name}")
         started = time.monotonic()
-        records = run_episodes(env, policy, args.episodes, args.seed, progress)
+        records = run_episodes(env, policy, args.episodes, args.seed, progress, stop_on_abort=stop_on_abort)
+        if stop_on_abort and records[-1].abort_reason:
+            aborted = f"{method} episode {len(records) - 1} aborted: {records[-1].abort_reason}"
         seconds = time.monotonic() - started
         summary, report = method_report(method, records, [t.category for t in scenario.tasks],
                                         out.with_name(f"{out.stem}_{method}_gantt.png"),
-                                        f"{method} · {scenario.name}", exact_makespan)
+                                        f"{method} · {scenario.name}", best, lower, basis)
         summaries.append(summary)
         results.append({
             "summary": report["summary"], "seconds": seconds, "gantt": report["gantt"],
@@ -173,17 +201,24 @@ def evaluate(args: argparse.Namespace) -> int:
             "representative_episode": report["representative_episode"], "episodes": episode_rows(records),
         })
     print(format_table(summaries))
+    if reference is not None:
+        print(ratio_note(reference))
     document = {
         "scenario": str(scenario.source), "scenario_name": scenario.name, "executor": args.executor,
+        "mode": getattr(env, "mode", "simulation"),
         # ros: the simulator's noise profile, which the episodes ran under
         "profile": env.noise_profile if args.executor == "ros" else args.profile or "default",
         "mask": env.settings.mask, "episodes": args.episodes,
         "seed": args.seed,
-        "exact": plan_json(exact_plan, task_ids) if exact_plan is not None else None,
+        "exact": plan_json(reference.plan, task_ids) if reference is not None else None,
+        "reference": reference.as_dict() if reference is not None else None,
         "results": results,
     }
     write_document(out, document)
     print(f"wrote {out} and {len(results)} Gantt chart(s)", file=sys.stderr)
+    if aborted:
+        print(f"evaluate: {aborted}; no further episode started", file=sys.stderr)
+        return 1
     return 0
 
 
@@ -201,3 +236,6 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     except lost as error:   # the ROS graph went away mid-run
         print(f"evaluate: {error}", file=sys.stderr)
         return 1
+    except KeyboardInterrupt:   # Ctrl-C (real robots: the task manager stops them and writes the episode)
+        print("evaluate: interrupted", file=sys.stderr)
+        return 130

@@ -2,10 +2,12 @@
 
 Rounds until every task is sold: every task whose predecessors are already sold is offered;
 each robot bids for appending it to its route: with the `minimax` objective the route's new
-finish time (its estimated start waits for the predecessors' estimated finish), with `minsum`
-the increase of that time. The lowest bid over all (task, robot) pairs wins (ties: lower task,
-then lower robot index). The routes are then turned into steps by plan.decode_task_lists, the
-same decoder as the GA's.
+finish time (its estimated start waits for the predecessors' estimated finish; a leg beyond the
+goal timeout counts as the quickest chain of legs over other goals), with `minsum` the increase
+of that time. The lowest bid over all (task, robot) pairs wins (ties: lower task, then lower
+robot index). The routes are then turned into steps by plan.decode_task_lists, the same decoder
+as the GA's. Each route follows the order of sale, in which a task comes after its predecessors,
+so the decoded schedule never waits on a robot that waits in turn.
 """
 from __future__ import annotations
 
@@ -16,7 +18,9 @@ from marl_mrta.baselines.plan import Plan, SchedulingInstance, decode_task_lists
 
 def solve_auction(instance: SchedulingInstance, objective: str = "minimax") -> Plan:
     n_r, n_t = instance.n_robots, instance.n_tasks
-    travel = instance.travel_rows
+    chains = instance.chain_times()
+    travel = [[leg if leg <= instance.goal_timeout else float(chains[a, b]) for b, leg in enumerate(row)]
+              for a, row in enumerate(instance.travel_rows)]
     routes: List[List[int]] = [[] for _ in range(n_r)]
     end_node = list(range(n_r))
     end_time = [0.0] * n_r

@@ -1,29 +1,35 @@
-"""The exact baseline: the minimum makespan under the environment's own step rules, proven.
+"""The exact A* baseline: the minimum makespan under the environment's own step rules, proven.
 
 Model. A state is (finished tasks, node of every robot). A move is any joint action of the
 environment (each robot: any task, including finished ones and tasks another robot also
 picks, or None; all-None is left out since it only burns the idle step). Its cost is the
 step duration of model/rules.py with nominal travel times; moves that would finish a task
 before one of its predecessors are excluded, since the goal is a complete, logic-consistent
-episode. The minimum makespan is the cheapest path to "all finished".
+episode, and so are moves with a leg beyond the goal timeout (it fails: the robot stays and the
+step only gets longer). The minimum makespan is the cheapest path to "all finished".
 
 Search. A* with an admissible heuristic, re-opening a state whenever a cheaper path to it is
 found, so the first goal state taken from the queue is optimal; the proof is the search
 itself (every state with a lower f was expanded). Lower bounds used:
 - per open task j: it cannot be finished before some robot gets there (shortest chain of
-  legs, i.e. travel times closed under Floyd–Warshall) nor before its predecessors are
-  finished; plus its service time;
+  feasible legs, SchedulingInstance.chain_times) nor before its predecessors are finished;
+  plus its service time;
 - the open tasks' cheapest incoming legs and service times, shared over the robots.
 
-All joint actions of a state are evaluated at once with numpy: this is a batched copy of the
-rules of model/rules.py, kept identical by test_task_baselines.py, which compares both on random
-states and checks the solver against brute-force enumeration through rules.py.
+All (n_tasks+1)^n_robots joint actions of a state are evaluated at once with numpy: this is a
+batched copy of the rules of model/rules.py, kept identical by test_task_baselines.py, which
+compares both on random states and checks the solver against brute-force enumeration through
+rules.py. That batch and the search's tables grow fast with the team, so the search runs
+within budgets (AStarBudget): a batch whose estimated size exceeds the memory budget is
+refused before anything is allocated, and the search stops at its state, expansion, time or
+memory limit, with the best lower bound it proved and no plan.
 """
 from __future__ import annotations
 
 import heapq
-import itertools
 import math
+import time
+from dataclasses import dataclass
 from typing import Dict, List, Optional, Tuple
 
 import numpy as np
@@ -31,6 +37,41 @@ import numpy as np
 from marl_mrta.baselines.plan import Plan, SchedulingInstance, simulate_joint_actions
 
 _EPS = 1e-9
+#: Bytes a state costs in the search's tables (cost and parent dictionaries, queue entries), measured
+#: generously on CPython 3.8–3.11 so that the memory budget holds.
+STATE_BYTES = 400
+
+
+@dataclass(frozen=True)
+class AStarBudget:
+    """Limits of one search (config/task_baselines.yaml, `exact`)."""
+
+    max_expansions: int = 2_000_000
+    max_states: int = 5_000_000
+    time_limit: float = 60.0          # s of wall time
+    memory_mb: float = 2048.0         # the batch of joint actions plus the search's tables
+
+
+def batch_size(instance: SchedulingInstance) -> int:
+    """Joint actions evaluated per expanded state: (n_tasks + 1)^n_robots."""
+    return (instance.n_tasks + 1) ** instance.n_robots
+
+
+def batch_bytes(instance: SchedulingInstance) -> float:
+    """Estimated peak bytes of BatchedRules and one evaluation of a state's joint actions (every
+    array of evaluate() and of the bounds at once, numpy temporaries included)."""
+    n_r, n_t = instance.n_robots, instance.n_tasks
+    return float(batch_size(instance)) * (28 * n_r * n_t + 5 * n_t * n_t + 40 * (n_t + n_r))
+
+
+def refusal(instance: SchedulingInstance, budget: AStarBudget) -> Optional[str]:
+    """Why the search would not fit its memory budget (one line), or None."""
+    need = batch_bytes(instance) + 1000 * STATE_BYTES
+    if need > budget.memory_mb * 1e6:
+        return (f"A* refused: {batch_size(instance):.3g} joint actions per state "
+                f"(({instance.n_tasks}+1)^{instance.n_robots}) need about {need / 1e6:.0f} MB, "
+                f"over the memory budget of {budget.memory_mb:.0f} MB")
+    return None
 
 
 class BatchedRules:
@@ -40,7 +81,7 @@ class BatchedRules:
         n_r, n_t = instance.n_robots, instance.n_tasks
         self.n_r, self.n_t = n_r, n_t
         self.travel = np.asarray(instance.travel, dtype=float)
-        combos = np.array(list(itertools.product(range(n_t + 1), repeat=n_r)), dtype=np.int64)
+        combos = np.stack(np.unravel_index(np.arange(batch_size(instance)), (n_t + 1,) * n_r), axis=1)
         self.actions = combos[(combos < n_t).any(axis=1)]          # drop all-None
         self.has_goal = self.actions < n_t
         self.onehot = self.actions[:, :, None] == np.arange(n_t)[None, None, :]
@@ -50,6 +91,7 @@ class BatchedRules:
             self.pred[j, list(preds)] = True
         self.robot_index = np.arange(n_r)
         self.min_step = instance.min_step
+        self.goal_timeout = instance.goal_timeout
 
     def evaluate(self, done: np.ndarray, pos: np.ndarray):
         """For every joint action: valid flag, step duration, finished-after mask, new positions."""
@@ -66,7 +108,7 @@ class BatchedRules:
         # or in this step strictly before j's arrival.
         before = newly[:, None, :] & (finish_rel[:, None, :] < first_arrival[:, :, None])
         in_order = (~self.pred[None, :, :] | done[None, None, :] | before).all(axis=2)
-        valid = (in_order | ~newly).all(axis=1)
+        valid = (in_order | ~newly).all(axis=1) & (nav <= self.goal_timeout).all(axis=1)
         finisher_mask = self.onehot & newly[:, None, :] & (finisher[:, None, :] == self.robot_index[None, :, None])
         busy = nav + (finisher_mask * self.service[None, None, :]).sum(axis=2)
         duration = np.maximum(busy.max(axis=1), self.min_step)
@@ -80,17 +122,14 @@ class _Bounds:
 
     def __init__(self, instance: SchedulingInstance):
         n_r, n_t = instance.n_robots, instance.n_tasks
-        closure = np.asarray(instance.travel, dtype=float).copy()
-        np.fill_diagonal(closure, 0.0)
-        for k in range(closure.shape[0]):                                     # Floyd–Warshall
-            closure = np.minimum(closure, closure[:, k:k + 1] + closure[k:k + 1, :])
-        self.to_task = closure[:, n_r:]                                       # (nodes, n_t)
+        self.to_task = instance.chain_times()[:, n_r:]                       # (nodes, n_t)
         incoming = np.asarray(instance.travel, dtype=float)[:, n_r:].copy()
+        incoming[incoming > instance.goal_timeout] = np.inf
         incoming[n_r + np.arange(n_t), np.arange(n_t)] = np.inf               # a task's leg comes from elsewhere
         self.min_incoming = incoming.min(axis=0) + np.asarray(instance.service)
         self.service = np.asarray(instance.service, dtype=float)
         self.preds = [list(p) for p in instance.predecessors]
-        self.order = _topological_order(self.preds)
+        self.order = topological_order(self.preds)
         self.n_r = n_r
 
     def __call__(self, done: np.ndarray, pos: np.ndarray) -> np.ndarray:
@@ -107,7 +146,7 @@ class _Bounds:
         return np.maximum(chain, shared)
 
 
-def _topological_order(preds: List[List[int]]) -> List[int]:
+def topological_order(preds: List[List[int]]) -> List[int]:
     order: List[int] = []
     placed = set()
     while len(order) < len(preds):
@@ -118,13 +157,34 @@ def _topological_order(preds: List[List[int]]) -> List[int]:
     return order
 
 
-def solve_exact(instance: SchedulingInstance, max_expansions: int = 2_000_000,
-                upper_bound: Optional[float] = None) -> Plan:
-    """A* over (finished set, robot nodes). upper_bound: makespan of a known logic-consistent
-    plan (prunes the search; the optimum is still found when it equals the bound)."""
-    rules = BatchedRules(instance)
-    bounds = _Bounds(instance)
+def root_lower_bound(instance: SchedulingInstance) -> float:
+    """The A* heuristic at the start: a lower bound on the makespan that costs nothing to compute."""
     n_r, n_t = instance.n_robots, instance.n_tasks
+    return float(_Bounds(instance)(np.zeros((1, n_t), dtype=bool), np.arange(n_r)[None, :])[0])
+
+
+def _unproven(instance: SchedulingInstance, status: str, lower: float, **details) -> Plan:
+    return Plan("exact", [[] for _ in range(instance.n_robots)], [], math.inf, 0, proven_optimal=False,
+                details=dict(details, status=status, lower_bound=lower), instance=instance)
+
+
+def solve_exact(instance: SchedulingInstance, max_expansions: Optional[int] = None,
+                upper_bound: Optional[float] = None, budget: AStarBudget = AStarBudget()) -> Plan:
+    """A* over (finished set, robot nodes). upper_bound: makespan of a known logic-consistent
+    plan (prunes the search; the optimum is still found when it equals the bound). Within the
+    budget (max_expansions, if given, replaces the budget's); past it, a plan without tasks,
+    not proven, with details["status"] one line saying which limit stopped it and
+    details["lower_bound"] what the search proved."""
+    started = time.monotonic()
+    n_r, n_t = instance.n_robots, instance.n_tasks
+    bounds = _Bounds(instance)
+    h0 = root_lower_bound(instance)
+    refused = refusal(instance, budget)
+    if refused:
+        return _unproven(instance, refused, h0, expansions=0)
+    expansion_limit = budget.max_expansions if max_expansions is None else max_expansions
+    state_limit = min(budget.max_states, int((budget.memory_mb * 1e6 - batch_bytes(instance)) / STATE_BYTES))
+    rules = BatchedRules(instance)
     n_nodes = n_r + n_t
     weights = (n_nodes ** np.arange(n_r)).astype(np.int64) << n_t
     bits = (1 << np.arange(n_t)).astype(np.int64)
@@ -139,16 +199,14 @@ def solve_exact(instance: SchedulingInstance, max_expansions: int = 2_000_000,
         return done.astype(bool), pos
 
     all_done = (1 << n_t) - 1
-    start_done = np.zeros(n_t, dtype=bool)
-    start_pos = np.arange(n_r, dtype=np.int64)
-    start_key = int(encode(start_done, start_pos))
+    start_key = int(encode(np.zeros(n_t, dtype=bool), np.arange(n_r, dtype=np.int64)))
     limit = math.inf if upper_bound is None else upper_bound + 1e-6
     best_g: Dict[int, float] = {start_key: 0.0}
     parent: Dict[int, Tuple[int, int]] = {}
-    h0 = float(bounds(start_done[None, :], start_pos[None, :])[0])
     queue = [(h0, 0.0, start_key)]
     expansions = 0
     goal_key = None
+    stopped = ""
     while queue:
         f, g, key = heapq.heappop(queue)
         if g > best_g.get(key, math.inf) + _EPS:
@@ -156,9 +214,16 @@ def solve_exact(instance: SchedulingInstance, max_expansions: int = 2_000_000,
         if key & all_done == all_done:
             goal_key = key
             break
-        expansions += 1
-        if expansions > max_expansions:
+        if expansions >= expansion_limit:
+            stopped = f"A* stopped after {expansions} expansions (its limit)"
+        elif len(best_g) >= state_limit:
+            stopped = f"A* stopped at {len(best_g)} states (the limit of its memory budget, {budget.memory_mb:.0f} MB)"
+        elif time.monotonic() - started > budget.time_limit:
+            stopped = f"A* stopped at its time limit ({budget.time_limit:g} s)"
+        if stopped:
+            heapq.heappush(queue, (f, g, key))
             break
+        expansions += 1
         done, pos = decode(key)
         valid, duration, new_done, new_pos = rules.evaluate(done, pos)
         g_new = g + duration
@@ -181,10 +246,13 @@ def solve_exact(instance: SchedulingInstance, max_expansions: int = 2_000_000,
                 best_g[k] = gk
                 parent[k] = (key, i)
                 heapq.heappush(queue, (float(f_new[i]), gk, k))
+    seconds = time.monotonic() - started
     if goal_key is None:
-        lower = queue[0][0] if queue else math.inf
-        return Plan("exact", [[] for _ in range(n_r)], [], math.inf, 0, proven_optimal=False,
-                    details={"expansions": expansions, "lower_bound": lower, "status": "limit reached or no plan under the bound"})
+        # Every state with f below the queue's least f was expanded; with the queue empty no
+        # plan beats the bound, so the bound's plan is optimal.
+        lower = queue[0][0] if queue else (upper_bound if upper_bound is not None else math.inf)
+        return _unproven(instance, stopped or "A*: no plan below the given bound", lower,
+                         expansions=expansions, states=len(best_g), seconds=seconds)
     joint_actions: List[List[Optional[int]]] = []
     key = goal_key
     while key != start_key:
@@ -194,4 +262,6 @@ def solve_exact(instance: SchedulingInstance, max_expansions: int = 2_000_000,
     joint_actions.reverse()
     run = simulate_joint_actions(instance, joint_actions)
     return Plan("exact", run.robot_tasks, run.joint_actions, run.elapsed, run.violations, proven_optimal=True,
-                details={"expansions": expansions, "states": len(best_g), "optimal_makespan": best_g[goal_key]})
+                details={"solver": "astar", "expansions": expansions, "states": len(best_g),
+                         "optimal_makespan": best_g[goal_key], "seconds": seconds},
+                instance=instance)

@@ -2,13 +2,15 @@
 
 Chromosome = a task order (permutation) + a robot split (n_robots − 1 sorted cut points): robot
 r does the r-th segment of the order. Fitness = the nominal makespan of the decoded schedule
-under the environment's step rules (plan.decode_task_lists) + a penalty per task finished in
-wrong order. Tournament selection, order crossover (OX), swap/inversion/move/cut mutations, elitism, and
-a final hill-climb over single task moves and swaps from the best chromosome.
-Seeded: the same seed gives the same plan.
+under the environment's step rules (plan.decode_task_lists, which keeps every schedule in
+order and complete). Tournament selection, order crossover (OX), swap/inversion/move/cut
+mutations, elitism, and a final hill-climb over single task moves and swaps from the best
+chromosome, all within `max_evaluations` decoded chromosomes (a count, not a time, so the plan
+does not depend on the machine). Seeded: the same seed gives the same plan.
 """
 from __future__ import annotations
 
+import math
 import random
 from typing import Dict, List, Tuple
 
@@ -68,7 +70,9 @@ def _mutate(rng: random.Random, order: Tuple[int, ...], cuts: Tuple[int, ...], n
 
 
 def _neighbours(chrom: Chromosome):
-    """Every single move of a task (to any place of any robot's list) and every swap of two tasks."""
+    """Every single move of a task (to any place of any robot's list), every swap of two tasks,
+    and every exchange of two robots' list ends (which no single move or swap reaches: two
+    robots that would trade their last stages)."""
     lists = split(*chrom)
     for source, tasks in enumerate(lists):
         for i in range(len(tasks)):
@@ -84,6 +88,16 @@ def _neighbours(chrom: Chromosome):
             genes = list(order)
             genes[i], genes[j] = genes[j], genes[i]
             yield tuple(genes), cuts
+    for a in range(len(lists)):
+        for b in range(a + 1, len(lists)):
+            for i in range(len(lists[a]) + 1):
+                for k in range(len(lists[b]) + 1):
+                    if i == len(lists[a]) and k == len(lists[b]):
+                        continue
+                    exchanged = [list(t) for t in lists]
+                    exchanged[a] = lists[a][:i] + lists[b][k:]
+                    exchanged[b] = lists[b][:k] + lists[a][i:]
+                    yield join(exchanged)
 
 
 def solve_ga(instance: SchedulingInstance, settings: GaSettings = GaSettings(), seed: int = 0) -> Plan:
@@ -95,9 +109,12 @@ def solve_ga(instance: SchedulingInstance, settings: GaSettings = GaSettings(), 
         value = cache.get(chrom)
         if value is None:
             run = decode_task_lists(instance, split(*chrom))
-            value = run.elapsed + settings.violation_penalty * run.violations
+            value = run.elapsed if run.complete else math.inf
             cache[chrom] = value
         return value
+
+    def spent() -> bool:
+        return len(cache) >= settings.max_evaluations
 
     def random_chromosome() -> Chromosome:
         order = list(range(n_tasks))
@@ -113,6 +130,8 @@ def solve_ga(instance: SchedulingInstance, settings: GaSettings = GaSettings(), 
     stall = 0
     generation = 0
     for generation in range(1, settings.generations + 1):
+        if spent():
+            break
         ranked = sorted(population, key=fitness)
         children = ranked[:settings.elite]
         seen = set(children)
@@ -141,9 +160,11 @@ def solve_ga(instance: SchedulingInstance, settings: GaSettings = GaSettings(), 
                 break
     # Memetic finish: hill-climb from the best chromosome over single moves and swaps.
     improved = True
-    while improved:
+    while improved and not spent():
         improved = False
         for candidate in _neighbours(best):
+            if spent():
+                break
             if fitness(candidate) < fitness(best) - 1e-9:
                 best, improved = candidate, True
                 break

@@ -1,12 +1,13 @@
 """What planners work on and what they produce.
 
 SchedulingInstance: a scenario reduced to nominal numbers (travel times between nodes, service
-times, precedence). Plan: per-robot ordered task lists plus the per-step joint actions that
-carry them out under the environment's step rules (model/rules.py), so a plan can be replayed
-through the environment and scored by the same rules as every other method.
+times, precedence, the goal timeout). Plan: per-robot ordered task lists plus the per-step joint
+actions that carry them out under the environment's step rules (model/rules.py), so a plan can
+be replayed through the environment and scored by the same rules as every other method.
 """
 from __future__ import annotations
 
+import heapq
 import math
 from dataclasses import dataclass, field
 from typing import Any, Dict, List, Optional, Sequence, Tuple
@@ -20,7 +21,11 @@ INFINITE_TIME = math.inf
 
 @dataclass(frozen=True)
 class SchedulingInstance:
-    """Nodes 0..n_robots−1 are the robots' start poses, node n_robots + j is task j's goal."""
+    """Nodes 0..n_robots−1 are the robots' start poses, node n_robots + j is task j's goal.
+
+    goal_timeout: a leg that takes longer fails in the environment (the robot stays where it
+    was), so planners only use legs within it and reach farther goals over other goals.
+    """
 
     n_robots: int
     n_tasks: int
@@ -29,6 +34,7 @@ class SchedulingInstance:
     predecessors: Tuple[Tuple[int, ...], ...]   # per task
     min_step: float = 1.0
     task_ids: Tuple[str, ...] = ()
+    goal_timeout: float = INFINITE_TIME
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "travel_rows", np.asarray(self.travel, dtype=float).tolist())
@@ -38,11 +44,35 @@ class SchedulingInstance:
     def node(self, task: int) -> int:
         return self.n_robots + task
 
+    def leg_feasible(self, a: int, b: int) -> bool:
+        """A leg from node a to node b arrives within the goal timeout."""
+        return self.travel_rows[a][b] <= self.goal_timeout
+
+    def chain_times(self) -> np.ndarray:
+        """Shortest chains of feasible legs between nodes (Floyd–Warshall; inf: no chain; 0 on the
+        diagonal): what a robot needs at least to get from one node to another over any goals."""
+        cached = self.__dict__.get("_chain_times")
+        if cached is None:
+            closure = np.asarray(self.travel, dtype=float).copy()
+            closure[closure > self.goal_timeout] = np.inf
+            np.fill_diagonal(closure, 0.0)
+            for k in range(closure.shape[0]):
+                closure = np.minimum(closure, closure[:, k:k + 1] + closure[k:k + 1, :])
+            closure.setflags(write=False)
+            object.__setattr__(self, "_chain_times", closure)
+            cached = closure
+        return cached
+
+    def unreachable_tasks(self) -> List[int]:
+        """Tasks no robot can reach from its start by any chain of feasible legs."""
+        chains = self.chain_times()[:self.n_robots, self.n_robots:]
+        return [j for j in range(self.n_tasks) if not np.isfinite(chains[:, j]).any()]
+
     @staticmethod
-    def from_scenario(scenario, table, min_step: float) -> "SchedulingInstance":
+    def from_scenario(scenario, table, min_step: float, goal_timeout: float = INFINITE_TIME) -> "SchedulingInstance":
         return SchedulingInstance(scenario.n_robots, scenario.n_tasks, np.array(table.nominal_time),
                                   tuple(t.service_time for t in scenario.tasks), tuple(scenario.predecessors),
-                                  min_step, tuple(t.id for t in scenario.tasks))
+                                  min_step, tuple(t.id for t in scenario.tasks), goal_timeout)
 
 
 @dataclass
@@ -54,13 +84,19 @@ class Plan:
     logic_violations: int                        # tasks finished in wrong order (nominal)
     proven_optimal: bool = False
     details: Dict[str, Any] = field(default_factory=dict)
+    instance: Optional[SchedulingInstance] = None   # what it was planned on (the replay's fallback uses it)
 
     def describe(self, task_ids: Sequence[str]) -> List[List[str]]:
         return [[task_ids[t] for t in tasks] for tasks in self.robot_tasks]
 
+    @property
+    def complete(self) -> bool:
+        return self.instance is not None and sum(len(t) for t in self.robot_tasks) == self.instance.n_tasks
+
 
 class NominalRun:
-    """Steps an instance with nominal travel times through model/rules.py (no noise, no timeout)."""
+    """Steps an instance with nominal travel times through model/rules.py (no noise, no episode
+    timeout; a leg beyond the goal timeout fails as in the environment)."""
 
     def __init__(self, instance: SchedulingInstance):
         self.instance = instance
@@ -70,18 +106,21 @@ class NominalRun:
         self.violations = 0
         self.robot_tasks: List[List[int]] = [[] for _ in range(instance.n_robots)]
         self.joint_actions: List[List[Optional[int]]] = []
+        self.stalled = False   # the last step finished no task (next_goals then takes ready tasks only)
 
     def preview(self, goals: Sequence[Optional[int]]) -> StepResolution:
         inst = self.instance
-        nav = [0.0 if g is None else inst.travel_rows[self.positions[r]][inst.n_robots + g]
-               for r, g in enumerate(goals)]
-        return resolve_step(goals, nav, [g is not None for g in goals], [0] * len(goals), self.finished,
+        legs = [0.0 if g is None else inst.travel_rows[self.positions[r]][inst.n_robots + g]
+                for r, g in enumerate(goals)]
+        reached = [g is not None and leg <= inst.goal_timeout for g, leg in zip(goals, legs)]
+        nav = [leg if ok or g is None else inst.goal_timeout for g, leg, ok in zip(goals, legs, reached)]
+        return resolve_step(goals, nav, reached, [0] * len(goals), self.finished,
                             inst.predecessors, inst.service, INFINITE_TIME, inst.min_step)
 
     def apply(self, goals: Sequence[Optional[int]]) -> StepResolution:
         resolution = self.preview(goals)
         for r, g in enumerate(goals):
-            if g is not None:
+            if g is not None and resolution.reached[r]:
                 self.positions[r] = self.instance.n_robots + g
         for done in resolution.finished:
             self.finished[done.task] = True
@@ -90,6 +129,7 @@ class NominalRun:
                 self.violations += 1
         self.elapsed += resolution.duration
         self.joint_actions.append(list(goals))
+        self.stalled = not resolution.finished
         return resolution
 
     @property
@@ -104,35 +144,105 @@ def simulate_joint_actions(instance: SchedulingInstance, joint_actions: Sequence
     return run
 
 
-def decode_task_lists(instance: SchedulingInstance, robot_lists: Sequence[Sequence[int]]) -> NominalRun:
-    """Joint actions carrying out per-robot ordered task lists (each task in exactly one list).
+def first_hop(instance: SchedulingInstance, finished: Sequence[bool], start: int, task: int) -> Optional[int]:
+    """The task whose goal a robot at node `start` drives to first on its quickest way to `task`'s
+    goal, when legs longer than the goal timeout force it over goals of finished tasks (a robot
+    can only be sent to goals); `task` itself when the leg is feasible; None when no way exists."""
+    target = instance.node(task)
+    if instance.leg_feasible(start, target):
+        return task
+    rows = instance.travel_rows
+    waypoints = [instance.node(j) for j in range(instance.n_tasks) if finished[j]] + [target]
+    best = {start: 0.0}
+    first: Dict[int, int] = {}
+    queue = [(0.0, start)]
+    while queue:
+        time, node = heapq.heappop(queue)
+        if node == target:
+            return first[node] - instance.n_robots
+        if time > best.get(node, math.inf):
+            continue
+        for nxt in waypoints:
+            leg = rows[node][nxt]
+            if nxt != node and leg <= instance.goal_timeout and time + leg < best.get(nxt, math.inf):
+                best[nxt] = time + leg
+                first[nxt] = first.get(node, nxt)
+                heapq.heappush(queue, (time + leg, nxt))
+    return None
 
-    Each step every robot heads for the next task of its list; a robot whose arrival would
-    come before a predecessor is finished waits this step instead (None), repeatedly until
-    the step is consistent. If every remaining robot would have to wait, they go anyway (a
-    logic violation, counted): the lists order some task before its own predecessor.
+
+def _ready(instance: SchedulingInstance, finished: Sequence[bool], task: int) -> bool:
+    return not finished[task] and all(finished[p] for p in instance.predecessors[task])
+
+
+def next_goals(run: NominalRun, robot_lists: Sequence[Sequence[int]]) -> Optional[List[Optional[int]]]:
+    """One step of carrying out per-robot ordered task lists from the run's state, logic-consistent.
+
+    Each robot heads for the first open task of its list (over goals of finished tasks when that
+    leg is beyond the goal timeout); a robot whose arrival would come before a predecessor is
+    finished waits this step (None), repeatedly until the step is consistent. When that leaves
+    every robot waiting (the lists order a task before a predecessor another robot holds
+    later), each robot takes the first task of its list whose predecessors are all finished,
+    and if none can, the robot nearest to a ready task no one else has takes it. Some task is
+    always ready (the precedence is acyclic), so the lists never deadlock. After a step that
+    finished nothing (`run.stalled`) robots take ready tasks only: a robot driving over other
+    goals towards a task that is not ready can otherwise swing between two goals for ever, the
+    way to its next ready task leading back where the way to its head came from. None: no robot
+    can reach any ready task (the instance cannot be completed).
     """
-    run = NominalRun(instance)
-    pointer = [0] * instance.n_robots
-    while any(pointer[r] < len(robot_lists[r]) for r in range(instance.n_robots)):
-        wanted = [robot_lists[r][pointer[r]] if pointer[r] < len(robot_lists[r]) else None
-                  for r in range(instance.n_robots)]
-        goals = list(wanted)
-        while True:
-            resolution = run.preview(goals)
-            wrong = [r for r, g in enumerate(goals) if g is not None and not resolution.correct_order[r]]
-            if not wrong:
+    inst, finished, positions = run.instance, run.finished, run.positions
+
+    def toward(robot: int, task: int) -> Optional[int]:
+        return first_hop(inst, finished, positions[robot], task)
+
+    heads = [next((t for t in tasks if not finished[t]), None) for tasks in robot_lists]
+    goals = [None if h is None or run.stalled else toward(r, h) for r, h in enumerate(heads)]
+    while any(g is not None for g in goals):
+        resolution = run.preview(goals)
+        wrong = [r for r, g in enumerate(goals) if g is not None and not resolution.correct_order[r]]
+        if not wrong:
+            return goals
+        for r in wrong:
+            goals[r] = None
+    taken = set()
+    for r, tasks in enumerate(robot_lists):
+        for t in tasks:
+            if t not in taken and _ready(inst, finished, t):
+                hop = toward(r, t)
+                if hop is not None:
+                    goals[r] = hop
+                    taken.add(t)
+                    break
+    if any(g is not None for g in goals):
+        return goals
+    chains = inst.chain_times()
+    spare = [t for t in range(inst.n_tasks) if _ready(inst, finished, t)]
+    for t in spare:
+        candidates = sorted((chains[positions[r], inst.node(t)], r) for r in range(inst.n_robots) if goals[r] is None)
+        for _, r in candidates:
+            hop = toward(r, t)
+            if hop is not None:
+                goals[r] = hop
                 break
-            for r in wrong:
-                goals[r] = None
-        if all(g is None for g in goals):
-            goals = wanted
+    return goals if any(g is not None for g in goals) else None
+
+
+def decode_task_lists(instance: SchedulingInstance, robot_lists: Sequence[Sequence[int]]) -> NominalRun:
+    """Joint actions carrying out per-robot ordered task lists (each task in exactly one list),
+    step by step with next_goals, until every task is finished (or no robot can reach the rest)."""
+    run = NominalRun(instance)
+    # A bound on the steps, so that no list can keep the decoder going: every task is at most
+    # n_tasks goals away from any robot and a stalled step moves towards a ready one.
+    for _ in range(2 * (instance.n_tasks + 1) * (instance.n_tasks + instance.n_robots)):
+        if run.complete:
+            break
+        goals = next_goals(run, robot_lists)
+        if goals is None:
+            break
         run.apply(goals)
-        for r, g in enumerate(goals):
-            if g is not None:
-                pointer[r] += 1
     return run
 
 
 def plan_from_run(method: str, run: NominalRun, **details: Any) -> Plan:
-    return Plan(method, run.robot_tasks, run.joint_actions, run.elapsed, run.violations, details=dict(details))
+    return Plan(method, run.robot_tasks, run.joint_actions, run.elapsed, run.violations, details=dict(details),
+                instance=run.instance)

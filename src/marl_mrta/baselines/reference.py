@@ -1,37 +1,184 @@
 """The planners' view of a scenario and the reference every method is measured against.
 
 `scheduling_instance` reduces a scenario to the nominal numbers the planners work on (the
-travel-time table of the configured travel model); `exact_reference` proves the minimum
-makespan on it. Training, evaluation, execution and the benchmarks all take the reference
-from here.
+travel-time table of the configured travel model, min_step, goal timeout). `solve_reference`
+finds the best known plan under the step rules and a proven lower bound on the optimum;
+`choose_solver` is where it is decided which solver serves a scenario:
+
+- "astar" when a state's (n_tasks+1)^n_robots joint actions and the tasks are few (exact.py,
+  proves the optimum; for the lab scenarios in well under a second);
+- "cpsat" otherwise, and when the A* stops at a budget: the asynchronous and the synchronous
+  relaxations give lower bounds and routes (relaxation.py), the step model the best plan it
+  finds from the best one so far, and its own bound (step_model.py).
+
+The auction's plan is the first upper bound, and plans of other methods passed in compete for
+the best known. Proven optimal means the gap between the best plan and the bound is 0 (within
+GAP_TOLERANCE). Training, evaluation, execution and the benchmarks all take the reference from
+here.
 """
 from __future__ import annotations
 
-from typing import Optional, Tuple
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Dict, List, Optional, Sequence, Tuple
 
 from marl_mrta.baselines.auction import solve_auction
-from marl_mrta.baselines.exact import solve_exact
-from marl_mrta.baselines.plan import Plan, SchedulingInstance
+from marl_mrta.baselines.exact import batch_size, refusal, root_lower_bound, solve_exact
+from marl_mrta.baselines.plan import INFINITE_TIME, Plan, SchedulingInstance, decode_task_lists, plan_from_run
+from marl_mrta.baselines.relaxation import solve_relaxation
 from marl_mrta.baselines.settings import BaselineSettings, load_baseline_settings
+from marl_mrta.baselines.step_model import solve_step_model
 from marl_mrta.env.factory import scenario_travel_table
-from marl_mrta.model.scenario import Scenario
+from marl_mrta.model.scenario import Scenario, ScenarioError
+
+#: s: a best plan within this of the lower bound is proven optimal (the CP-SAT models count time
+#: in microseconds, rounded, so their bounds sit a few ticks under an exact optimum).
+GAP_TOLERANCE = 1e-4
 
 
-def scheduling_instance(scenario: Scenario, min_step: float) -> SchedulingInstance:
-    """The scenario in nominal numbers: plans always come from the nominal travel times."""
-    return SchedulingInstance.from_scenario(scenario, scenario_travel_table(scenario), min_step)
+@dataclass
+class Reference:
+    """The best known plan of a scenario and what is proven about the optimum."""
+
+    plan: Plan                       # the best known plan, as method "exact" (proven_optimal set)
+    lower_bound: float               # s, proven: no plan under the step rules is shorter
+    solver: str                      # astar | cpsat: which one served (choose_solver)
+    best_source: str                 # what found the best plan (astar, cpsat_steps, auction, ...)
+    bound_source: str                # what proved the lower bound
+    log: List[str] = field(default_factory=list)   # one line per solver run
+    seconds: float = 0.0
+
+    @property
+    def best_makespan(self) -> float:
+        return self.plan.makespan
+
+    @property
+    def gap(self) -> float:
+        """(best − bound) / best; 0 when proven optimal, inf without a plan."""
+        if not math.isfinite(self.best_makespan):
+            return math.inf
+        if self.best_makespan - self.lower_bound <= GAP_TOLERANCE:
+            return 0.0
+        return (self.best_makespan - self.lower_bound) / self.best_makespan
+
+    @property
+    def proven_optimal(self) -> bool:
+        return self.gap == 0.0
+
+    def describe(self) -> str:
+        """One line: best, bound, gap and who found them."""
+        if not math.isfinite(self.best_makespan):
+            return f"reference: no plan found, lower bound {self.lower_bound:.2f} s ({self.bound_source}), {self.seconds:.1f} s"
+        state = "proven optimal" if self.proven_optimal else f"gap {100 * self.gap:.1f} %, NOT proven optimal"
+        return (f"reference: best {self.best_makespan:.2f} s ({self.best_source}), lower bound {self.lower_bound:.2f} s "
+                f"({self.bound_source}), {state}, {self.seconds:.1f} s")
+
+    def as_dict(self) -> Dict[str, object]:
+        return {"best_makespan": self.best_makespan, "lower_bound": self.lower_bound, "gap": self.gap,
+                "proven_optimal": self.proven_optimal, "method": self.best_source, "bound_method": self.bound_source,
+                "solver": self.solver, "seconds": self.seconds, "log": list(self.log)}
+
+
+def scheduling_instance(scenario: Scenario, min_step: float, goal_timeout: float = INFINITE_TIME) -> SchedulingInstance:
+    """The scenario in nominal numbers: plans always come from the nominal travel times.
+    ScenarioError naming the first task no robot can reach (every way to its goal, over other
+    goals, has a leg beyond the goal timeout), so that no plan could ever finish it."""
+    instance = SchedulingInstance.from_scenario(scenario, scenario_travel_table(scenario), min_step, goal_timeout)
+    unreachable = instance.unreachable_tasks()
+    if unreachable:
+        task = scenario.tasks[unreachable[0]]
+        raise ScenarioError(f"{scenario.source}: <task id=\"{task.id}\">: no robot can reach its goal "
+                            f"({task.goal.x:g}, {task.goal.y:g}): every way there has a leg longer than the goal "
+                            f"timeout ({goal_timeout:g} s)")
+    return instance
+
+
+def choose_solver(instance: SchedulingInstance, settings: BaselineSettings) -> str:
+    """astar when a state's joint actions and the tasks are few enough and the batch fits the A*'s
+    memory budget, else cpsat."""
+    if batch_size(instance) <= settings.astar_max_batch and instance.n_tasks <= settings.astar_max_tasks \
+            and refusal(instance, settings.astar) is None:
+        return "astar"
+    return "cpsat"
+
+
+def _usable(plan: Optional[Plan]) -> bool:
+    return plan is not None and plan.complete and plan.logic_violations == 0 and math.isfinite(plan.makespan)
+
+
+def solve_reference(instance: SchedulingInstance, settings: Optional[BaselineSettings] = None,
+                    candidates: Sequence[Plan] = ()) -> Reference:
+    """The best known plan and the proven lower bound, within the settings' budgets."""
+    started = time.monotonic()
+    settings = settings or load_baseline_settings()
+    solver = choose_solver(instance, settings)
+    log: List[str] = []
+    plans: List[Tuple[Plan, str]] = [(p, p.method) for p in candidates if _usable(p)]
+    auction = solve_auction(instance, settings.auction_objective)
+    if _usable(auction):
+        plans.append((auction, "auction"))
+    bounds: List[Tuple[float, str]] = [(root_lower_bound(instance), "root bound")]
+
+    def best() -> Optional[Plan]:
+        """The shortest plan; of equal ones the solver's last (A* and CP-SAT after the heuristics)."""
+        return min(reversed(plans), key=lambda p: p[0].makespan)[0] if plans else None
+
+    astar_done = False
+    if solver == "astar":
+        upper = best()
+        plan = solve_exact(instance, upper_bound=upper.makespan if upper else None, budget=settings.astar)
+        if plan.proven_optimal:
+            plans.append((plan, "astar"))
+            bounds.append((plan.makespan, "astar"))
+            astar_done = True
+            log.append(f"A*: optimal {plan.makespan:.2f} s, {plan.details['expansions']} expansions, "
+                       f"{plan.details['seconds']:.2f} s")
+        else:
+            bounds.append((plan.details["lower_bound"], "astar"))
+            astar_done = not plan.details["status"].startswith("A* stopped")
+            log.append(f"{plan.details['status']}; lower bound {plan.details['lower_bound']:.2f} s")
+    if not astar_done:
+        for kind in ("asynchronous", "synchronous"):
+            upper = best()
+            relaxed = solve_relaxation(instance, settings.cpsat, kind, upper, upper.makespan if upper else None,
+                                       max(b for b, _ in bounds))
+            log.append(relaxed.status)
+            bounds.append((relaxed.lower_bound, f"{kind} relaxation"))
+            if relaxed.routes is not None:
+                decoded = plan_from_run("exact", decode_task_lists(instance, relaxed.routes), solver=f"{kind} routes")
+                if _usable(decoded):
+                    plans.append((decoded, f"{kind} relaxation routes"))
+        known = max(b for b, _ in bounds)
+        stepped = solve_step_model(instance, settings.cpsat, best(), known)
+        log.append(stepped.status)
+        if stepped.plan is not None:
+            plans.append((stepped.plan, "cpsat step model"))
+        bounds.append((stepped.lower_bound, "cpsat step model"))
+    lower, bound_source = max(bounds, key=lambda b: b[0])
+    chosen = best()
+    if chosen is None:
+        plan = Plan("exact", [[] for _ in range(instance.n_robots)], [], math.inf, 0, details={"solver": solver},
+                    instance=instance)
+        source = "none"
+    else:
+        source = next(name for p, name in plans if p is chosen)
+        lower = min(lower, chosen.makespan)
+        plan = Plan("exact", chosen.robot_tasks, chosen.joint_actions, chosen.makespan, chosen.logic_violations,
+                    details={**chosen.details, "solver": source, "lower_bound": lower}, instance=instance)
+    reference = Reference(plan, lower, solver, source, bound_source, log, time.monotonic() - started)
+    plan.proven_optimal = reference.proven_optimal
+    plan.details["gap"] = reference.gap
+    return reference
 
 
 def exact_reference(instance: SchedulingInstance, settings: Optional[BaselineSettings] = None) -> Plan:
-    """The proven optimum, with the auction's consistent plan as the search's first bound."""
-    settings = settings or load_baseline_settings()
-    auction = solve_auction(instance, settings.auction_objective)
-    bound = auction.makespan if auction.logic_violations == 0 else None
-    return solve_exact(instance, settings.exact_max_expansions, upper_bound=bound)
+    """The reference's best plan (proven optimal when its gap is 0)."""
+    return solve_reference(instance, settings).plan
 
 
-def scenario_reference(scenario: Scenario, min_step: float,
-                       settings: Optional[BaselineSettings] = None) -> Tuple[Plan, SchedulingInstance]:
+def scenario_reference(scenario: Scenario, min_step: float, settings: Optional[BaselineSettings] = None,
+                       goal_timeout: float = INFINITE_TIME) -> Tuple[Plan, SchedulingInstance]:
     """exact_reference of a scenario, with the instance it was solved on."""
-    instance = scheduling_instance(scenario, min_step)
+    instance = scheduling_instance(scenario, min_step, goal_timeout)
     return exact_reference(instance, settings), instance

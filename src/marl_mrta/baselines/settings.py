@@ -1,10 +1,12 @@
 """Settings of the baseline planners (config/task_baselines.yaml), read strictly."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Optional, Union
 
+from marl_mrta.baselines.cpsat import CpSatBudget
+from marl_mrta.baselines.exact import AStarBudget
 from marl_mrta.common.config import read_yaml
 from marl_mrta.common.paths import default_config_path
 
@@ -18,37 +20,54 @@ class GaSettings:
     elite: int = 2
     crossover_rate: float = 0.9
     mutation_rate: float = 0.4
-    violation_penalty: float = 100.0
+    max_evaluations: int = 20000   # decoded chromosomes, evolution and the final hill-climb together
 
 
 @dataclass(frozen=True)
 class BaselineSettings:
     random_choice: str
     ga: GaSettings
-    exact_max_expansions: int
     auction_objective: str
+    astar: AStarBudget
+    astar_max_batch: int           # A* serves a scenario with at most this many joint actions per state
+    astar_max_tasks: int           # and at most this many tasks (its states grow as 2^n_tasks)
+    cpsat: CpSatBudget
+
+    def with_cpsat(self, time_limit: Optional[float] = None, workers: Optional[int] = None) -> "BaselineSettings":
+        """These settings with the CP-SAT time limit and worker count replaced where given."""
+        budget = self.cpsat
+        if time_limit is not None:
+            budget = replace(budget, time_limit=time_limit)
+        if workers is not None:
+            budget = replace(budget, workers=workers)
+        return replace(self, cpsat=budget)
+
+
+#: The GA's whole-number settings and the least value each may take (its rates lie in [0, 1]).
+GA_COUNTS = (("population", 4), ("generations", 1), ("stall_generations", 1), ("tournament", 1), ("elite", 0),
+             ("max_evaluations", 1))
 
 
 def load_baseline_settings(path: Optional[Union[str, Path]] = None) -> BaselineSettings:
     root = read_yaml(path if path is not None else default_config_path("task_baselines.yaml"))
-    random_section = root.section("random")
     ga = root.section("ga")
+    counts = {name: ga.integer(name, minimum=least) for name, least in GA_COUNTS}
+    rates = {name: ga.number(name, minimum=0.0, maximum=1.0) for name in ("crossover_rate", "mutation_rate")}
     exact = root.section("exact")
-    auction = root.section("auction")
+    astar = AStarBudget(max_expansions=exact.integer("max_expansions", minimum=1),
+                        max_states=exact.integer("max_states", minimum=1),
+                        time_limit=exact.number("time_limit", above=0.0), memory_mb=exact.number("memory_mb", above=0.0))
+    cpsat = root.section("cpsat")
+    budget = CpSatBudget(time_limit=cpsat.number("time_limit", above=0.0), workers=cpsat.integer("workers", minimum=1),
+                         seed=cpsat.integer("seed", minimum=0), memory_mb=cpsat.number("memory_mb", above=0.0))
     settings = BaselineSettings(
-        random_choice=random_section.choice("choice", ["unfinished", "all"]),
-        ga=GaSettings(
-            population=int(ga.number("population", minimum=4)),
-            generations=int(ga.number("generations", minimum=1)),
-            stall_generations=int(ga.number("stall_generations", minimum=1)),
-            tournament=int(ga.number("tournament", minimum=1)),
-            elite=int(ga.number("elite", minimum=0)),
-            crossover_rate=ga.number("crossover_rate", minimum=0.0, maximum=1.0),
-            mutation_rate=ga.number("mutation_rate", minimum=0.0, maximum=1.0),
-            violation_penalty=ga.number("violation_penalty", minimum=0.0),
-        ),
-        exact_max_expansions=int(exact.number("max_expansions", minimum=1)),
-        auction_objective=auction.choice("objective", ["minimax", "minsum"]),
+        random_choice=root.section("random").choice("choice", ["unfinished", "all"]),
+        ga=GaSettings(**counts, **rates),
+        auction_objective=root.section("auction").choice("objective", ["minimax", "minsum"]),
+        astar=astar,
+        astar_max_batch=exact.integer("astar_max_batch", minimum=1),
+        astar_max_tasks=exact.integer("astar_max_tasks", minimum=1, maximum=60),
+        cpsat=budget,
     )
     root.check_all_used()
     return settings

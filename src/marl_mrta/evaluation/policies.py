@@ -8,41 +8,55 @@ from typing import List, Optional
 
 import numpy as np
 
-from marl_mrta.baselines.plan import Plan
+from marl_mrta.baselines.plan import NominalRun, Plan, next_goals
 from marl_mrta.env.api import StepOutput
-from marl_mrta.mappo.policy import ActorPolicy, PolicyFileError, load_policy
+from marl_mrta.mappo.policy import ActorPolicy, PolicyFileError, SetActorPolicy, load_policy
+from marl_mrta.model.scenario import Scenario, ScenarioError
 
 
 class PlanPolicy:
-    """Replays a plan's joint actions; if tasks are still open when they run out (a failed
-    goal under noise), each robot heads for the next open task of its own list, and a robot
-    with none left takes an open task no one else is heading for."""
+    """Replays a plan's joint actions; once they run out with tasks still open (a goal failed
+    under noise, or the plan has none), the rest is carried out as the planners decode task
+    lists (baselines/plan.next_goals, from the episode's finished tasks and the robots' nodes):
+    each robot on its own list, in order, over other goals where a leg exceeds the goal timeout,
+    and robots with nothing left taking ready tasks, so every episode that can end complete does."""
 
     def __init__(self, plan: Plan, n_agents: int, n_tasks: int):
+        if plan.instance is None:
+            raise ValueError(f"plan {plan.method!r} carries no scheduling instance to continue from")
         self.name = plan.method
         self.plan = plan
         self.n_agents = n_agents
         self.n_tasks = n_tasks
         self._step = 0
+        self._run = NominalRun(plan.instance)
+        self._sent: List[Optional[int]] = [None] * n_agents
 
     def begin_episode(self, first: StepOutput, episode: Optional[int] = None) -> None:
         self._step = 0
+        self._run = NominalRun(self.plan.instance)
+        self._sent = [None] * self.n_agents
+
+    def _track(self, output: StepOutput) -> None:
+        """The robots' nodes and the finished tasks as the episode has them."""
+        run = self._run
+        if self._step and output.info.reached:
+            for robot, (task, reached) in enumerate(zip(self._sent, output.info.reached)):
+                if task is not None and reached:
+                    run.positions[robot] = run.instance.node(task)
+        run.stalled = self._step > 0 and list(output.info.finished) == run.finished
+        run.finished = list(output.info.finished)
 
     def act(self, output: StepOutput) -> List[int]:
         none = self.n_tasks
+        self._track(output)
         step, self._step = self._step, self._step + 1
         if step < len(self.plan.joint_actions):
-            return [none if a is None else a for a in self.plan.joint_actions[step]]
-        finished = output.info.finished
-        actions = []
-        for tasks in self.plan.robot_tasks:
-            open_tasks = [t for t in tasks if not finished[t]]
-            actions.append(open_tasks[0] if open_tasks else none)
-        spare = [j for j in range(self.n_tasks) if not finished[j] and j not in actions]
-        for robot in range(self.n_agents):
-            if actions[robot] == none and spare:
-                actions[robot] = spare.pop(0)
-        return actions
+            goals = list(self.plan.joint_actions[step])
+        else:
+            goals = next_goals(self._run, self.plan.robot_tasks) or [None] * self.n_agents
+        self._sent = goals
+        return [none if g is None else g for g in goals]
 
 
 class PolicyLoadError(ValueError):
@@ -63,12 +77,15 @@ class LearnedPolicy:
 
     @classmethod
     def from_file(cls, path: str, n_agents: int, obs_dim: int, n_actions: int, seed: int = 0,
-                  deterministic: bool = True) -> "LearnedPolicy":
-        """The actor of an actor file, checked against the environment's sizes."""
+                  deterministic: bool = True, scenario: Optional[Scenario] = None) -> "LearnedPolicy":
+        """The actor of an actor file, checked against the
+        environment's sizes; a set actor acts on `scenario`, the environment's."""
         try:
-            actor = load_policy(path, seed=seed)
-        except PolicyFileError as error:
+            actor = load_policy(path, seed=seed, scenario=scenario)
+        except (PolicyFileError, ScenarioError) as error:
             raise PolicyLoadError(str(error)) from None
+        if isinstance(actor, SetActorPolicy) and actor.view is None:
+            raise PolicyLoadError(f"{path}: a set actor acts on a scenario: give the environment's")
         if actor.obs_dim != obs_dim or actor.n_actions != n_actions:
             raise PolicyLoadError(f"{path}: the actor expects observations of {actor.obs_dim} values and "
                                   f"{actor.n_actions} actions; this scenario has {obs_dim} and {n_actions}")

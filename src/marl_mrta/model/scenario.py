@@ -2,7 +2,12 @@
 
 The format is documented in docs/task_allocation.md ("Scenario files"). `load_scenario(path)`
 validates everything it reads and raises ScenarioError whose text is one line naming the file,
-the element and the problem; command-line tools print it and exit non-zero.
+the element and the problem; command-line tools print it and exit non-zero. Beyond the format:
+robots whose start footprints overlap, task goals closer than a robot's footprint, a task that
+cannot be finished within the episode timeout (its own service time, or the service times of
+the precedence chain before it), and precedence cycles are refused. What needs the travel times
+(a goal navigation cannot reach) is checked where they are computed (model/travel.py,
+baselines/reference.py).
 """
 from __future__ import annotations
 
@@ -16,6 +21,13 @@ from marl_mrta.model.occupancy_map import FREE, OCCUPIED, MapFileError, Occupanc
 from marl_mrta.common.paths import resolve_resource
 from marl_mrta.common.config import ConfigError
 from marl_mrta.model.reward import NavThresholds, check_reward_overrides
+from marl_mrta.model.robot import load_robot
+
+
+def footprint_radius() -> float:
+    """m, the radius of the robot's footprint circle (config/robot_burger.yaml `robot_radius`):
+    two robots, or a robot and a goal another robot is sent to, closer than twice it touch."""
+    return load_robot().radius
 
 
 class ScenarioError(ValueError):
@@ -180,8 +192,15 @@ def load_scenario(path: Union[str, Path]) -> Scenario:
     except MapFileError as error:
         raise reader.fail(map_element, f"cannot load the map: {error}") from None
 
-    robots = _read_robots(reader, reader.single(root, "robots"), grid_map)
-    tasks = _read_tasks(reader, reader.single(root, "tasks"), grid_map)
+    radius = footprint_radius()
+    robots_element = reader.single(root, "robots")
+    robots = _read_robots(reader, robots_element, grid_map)
+    _check_apart(reader, robots_element, [r.start for r in robots], radius, "robot", "start pose",
+                 "overlaps the footprint of robot", [r.id for r in robots])
+    tasks_element = reader.single(root, "tasks")
+    tasks = _read_tasks(reader, tasks_element, grid_map)
+    _check_apart(reader, tasks_element, [t.goal for t in tasks], radius, "task", "goal",
+                 "is closer than a robot's footprint to the goal of task", [t.id for t in tasks])
     predecessors = _read_precedence(reader, reader.single(root, "precedence", required=False), tasks)
 
     episode = reader.single(root, "episode")
@@ -189,6 +208,7 @@ def load_scenario(path: Union[str, Path]) -> Scenario:
     timeout = reader.number(episode, "timeout")
     if timeout <= 0.0:
         raise reader.fail(episode, f"timeout must be positive, got {timeout:g}")
+    _check_chains_fit(reader, tasks_element, tasks, predecessors, timeout)
 
     nav_element = reader.single(root, "nav_time")
     reader.attributes(nav_element, ("t_min", "t_avg", "t_max"))
@@ -220,6 +240,45 @@ def _read_posed(reader: _Reader, parent: ET.Element, tag: str, attributes: Seque
     if not found:
         raise reader.fail(parent, f"no <{tag}> given")
     return found
+
+
+def _check_apart(reader: _Reader, parent: ET.Element, poses: Sequence[Pose2D], radius: float, tag: str,
+                 what: str, problem: str, ids: Sequence[str]) -> None:
+    """Poses closer than two footprint radii: the later one is named (with the earlier)."""
+    elements = [e for e in parent if e.tag == tag]
+    need = 2.0 * radius
+    for j in range(len(poses)):
+        for i in range(j):
+            apart = math.hypot(poses[j].x - poses[i].x, poses[j].y - poses[i].y)
+            if apart < need:
+                raise reader.fail(elements[j], f"{what} ({poses[j].x:g}, {poses[j].y:g}) {problem} {ids[i]} "
+                                               f"({apart:.3g} m apart, at least {need:.3g} m needed)")
+
+
+def _check_chains_fit(reader: _Reader, parent: ET.Element, tasks: Sequence["TaskSpec"],
+                      predecessors: Sequence[Sequence[int]], timeout: float) -> None:
+    """Every task can be finished in order within the episode: its service time, after the
+    service times of the longest precedence chain before it (predecessors finish strictly first,
+    one after another), ends by the timeout."""
+    elements = [e for e in parent if e.tag == "task"]
+    done_by: Dict[int, Tuple[float, List[int]]] = {}
+
+    def earliest(j: int) -> Tuple[float, List[int]]:
+        if j not in done_by:
+            before, chain = max((earliest(p) for p in predecessors[j]), default=(0.0, []), key=lambda c: c[0])
+            done_by[j] = (before + tasks[j].service_time, chain + [j])
+        return done_by[j]
+
+    for j, task in enumerate(tasks):
+        if task.service_time > timeout:
+            raise reader.fail(elements[j], f"service_time {task.service_time:g} s does not fit in the episode "
+                                           f"timeout ({timeout:g} s)")
+    for j in range(len(tasks)):
+        finish, chain = earliest(j)
+        if finish > timeout:
+            path = " -> ".join(tasks[i].id for i in chain)
+            raise reader.fail(elements[j], f"cannot be finished in order within the episode timeout ({timeout:g} s): "
+                                           f"the chain {path} needs {finish:g} s of service alone")
 
 
 def _read_robots(reader: _Reader, parent: ET.Element, grid_map: OccupancyMap) -> Tuple[RobotSpec, ...]:

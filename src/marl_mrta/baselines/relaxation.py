@@ -1,0 +1,253 @@
+"""Relaxations of the step rules in CP-SAT: lower bounds on the makespan for any team.
+
+Both give each robot a route of the tasks it finishes (a circuit through its start and those
+tasks, AddCircuit; a task's self-loop meaning "not this robot's"), every task on exactly one
+route, legs as the quickest chains of feasible legs (SchedulingInstance.chain_times: a robot
+may pass over any goal), and a task's arrival no earlier than its predecessors' finishes
+(arrival + service). The makespan is the last finish.
+
+- asynchronous: robots do not wait for the end of a decision step; a robot arrives at its next
+  task after its previous arrival, that task's service time and the chain between them.
+- synchronous: every task is finished in a numbered step; a step ends no earlier than each
+  finish in it and at least min_step after it starts, the next step starts when it ends; a
+  robot finishes at most one task per step and leaves a task only when its step has ended; an
+  arrival comes one feasible leg after its step's start from where its robot stands: its start
+  (for its first task) or the goal of a task finished in an earlier step (its previous one, or
+  one it passed over), and strictly after the finish of a predecessor. n_tasks steps always
+  suffice (steps finishing nothing are dropped), and with an upper bound U at most
+  U / (the least possible finishing step) of them.
+
+Every plan under the step rules gives a schedule of either (its finishers' routes, with
+arrivals at least as late as the relaxation asks and predecessors finished strictly before),
+so each optimum, and CP-SAT's bound on it, is a lower bound of the step-rule optimum; the
+synchronous one is the tighter. Times are rounded down to ticks of 10 ms, so the integer optimum stays a
+lower bound of the exact one. The routes of the best solution are also a candidate schedule:
+plan.decode_task_lists turns them into steps.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Dict, List, Optional
+
+from ortools.sat.python import cp_model
+
+from marl_mrta.baselines.cpsat import BOUND_TIME, CpSatBudget, SolveOutcome, solve
+from marl_mrta.baselines.plan import Plan, SchedulingInstance, simulate_joint_actions
+
+#: Bytes CP-SAT needs per arc literal of these models, measured and rounded up.
+BYTES_PER_ARC = 8000
+KINDS = ("asynchronous", "synchronous")
+
+
+@dataclass
+class RelaxationResult:
+    kind: str
+    lower_bound: float                    # s, a lower bound of the step-rule optimum (0 if none)
+    optimum: Optional[float]              # s, the relaxation's best schedule (None if none found)
+    routes: Optional[List[List[int]]]     # per robot, the tasks of that schedule in order
+    status: str                           # one line
+    outcome: Optional[SolveOutcome] = None
+    details: Dict[str, object] = field(default_factory=dict)
+
+
+def arc_count(instance: SchedulingInstance) -> int:
+    n_r, n_t = instance.n_robots, instance.n_tasks
+    return n_r * (n_t + 1) ** 2
+
+
+def solve_relaxation(instance: SchedulingInstance, budget: CpSatBudget, kind: str = "asynchronous",
+                     hint: Optional[Plan] = None, upper_bound: Optional[float] = None,
+                     known_lower_bound: float = 0.0) -> RelaxationResult:
+    """One relaxation within the budget; `hint` (a complete plan) gives its first solution,
+    known_lower_bound (a bound already proven, e.g. the asynchronous one) its least makespan."""
+    if kind not in KINDS:
+        raise ValueError(f"relaxation kind {kind!r} is not one of {', '.join(KINDS)}")
+    n_r, n_t = instance.n_robots, instance.n_tasks
+    arcs = arc_count(instance)
+    if arcs * BYTES_PER_ARC > budget.memory_mb * 1e6:
+        return RelaxationResult(kind, 0.0, None, None, f"{kind} relaxation not built: {arcs} arcs need about "
+                                f"{arcs * BYTES_PER_ARC / 1e6:.0f} MB, over the memory budget of {budget.memory_mb:.0f} MB")
+    chains = instance.chain_times()
+    finite = chains[chains < float("inf")]
+    service = [BOUND_TIME.floor(s) for s in instance.service]
+    horizon = BOUND_TIME.floor(upper_bound) + 1 if upper_bound is not None else \
+        sum(service) + n_t * (BOUND_TIME.floor(float(finite.max())) + BOUND_TIME.floor(instance.min_step)) + 1
+
+    model = cp_model.CpModel()
+    arrival = [model.NewIntVar(0, horizon, f"arrival_{j}") for j in range(n_t)]
+    # When task j's robot may leave it: at its finish (asynchronous) or at its step's end.
+    leave = [arrival[j] + service[j] for j in range(n_t)]
+    makespan = model.NewIntVar(min(BOUND_TIME.floor(known_lower_bound), horizon), horizon, "makespan")
+    arc_of: Dict[tuple, cp_model.IntVar] = {}
+    steps = None
+    if kind == "synchronous":
+        steps = _steps(model, instance, arrival, service, horizon, upper_bound)
+        leave = steps.end
+    visits: List[List[cp_model.IntVar]] = [[] for _ in range(n_t)]
+    for r in range(n_r):
+        circuit = [(0, 0, model.NewBoolVar(f"idle_{r}"))]        # node 0: the robot's start
+        for j in range(n_t):
+            skip = model.NewBoolVar(f"skip_{r}_{j}")
+            circuit.append((j + 1, j + 1, skip))
+            visits[j].append(skip.Not())
+            circuit.append((j + 1, 0, model.NewBoolVar(f"last_{r}_{j}")))
+            first_leg = chains[r, instance.node(j)]
+            if first_leg < float("inf"):
+                lit = arc_of[r, -1, j] = model.NewBoolVar(f"first_{r}_{j}")
+                circuit.append((0, j + 1, lit))
+                model.Add(arrival[j] >= BOUND_TIME.floor(float(first_leg))).OnlyEnforceIf(lit)
+            for i in range(n_t):
+                leg = chains[instance.node(i), instance.node(j)]
+                if i == j or leg == float("inf"):
+                    continue
+                lit = arc_of[r, i, j] = model.NewBoolVar(f"arc_{r}_{i}_{j}")
+                circuit.append((i + 1, j + 1, lit))
+                model.Add(arrival[j] >= leave[i] + BOUND_TIME.floor(float(leg))).OnlyEnforceIf(lit)
+                if steps is not None:
+                    model.Add(steps.number[j] >= steps.number[i] + 1 + steps.wait[j]).OnlyEnforceIf(lit)
+                    model.Add(steps.number[j] <= steps.number[i] + 1 + steps.wait[j]).OnlyEnforceIf(lit)
+        model.AddCircuit(circuit)
+    if steps is not None:
+        _departures(model, instance, arrival, steps, arc_of)
+    for j in range(n_t):
+        model.AddExactlyOne(visits[j])
+        reach = min(chains[r, instance.node(j)] for r in range(n_r))
+        model.Add(arrival[j] >= BOUND_TIME.floor(float(reach)))
+        model.Add(makespan >= leave[j])
+        for p in instance.predecessors[j]:
+            model.Add(arrival[j] >= arrival[p] + service[p])
+    model.Minimize(makespan)
+    if hint is not None and hint.complete:
+        _hint(model, arc_of, hint)
+
+    solver, outcome = solve(model, budget)
+    routes = None
+    optimum = None
+    if outcome.has_solution:
+        routes = []
+        for r in range(n_r):
+            route, at = [], -1
+            while True:
+                nxt = next((j for j in range(n_t) if (r, at, j) in arc_of and solver.Value(arc_of[r, at, j])), None)
+                if nxt is None:
+                    break
+                route.append(nxt)
+                at = nxt
+            routes.append(route)
+        optimum = BOUND_TIME.seconds(outcome.objective)
+    # INFEASIBLE: no schedule at all, so no plan under the step rules either.
+    lower = {"INFEASIBLE": float("inf"), "MODEL_INVALID": 0.0}.get(outcome.status, max(BOUND_TIME.seconds(outcome.bound), 0.0))
+    state = "optimal" if outcome.optimal else ("feasible" if routes else "no schedule")
+    status = (f"{kind} relaxation ({arcs} arcs): {state}, bound {lower:.2f} s, CP-SAT {outcome.status} "
+              f"after {outcome.deterministic_seconds:.1f} deterministic s")
+    return RelaxationResult(kind, lower, optimum, routes, status, outcome, {"arcs": arcs, **outcome.as_dict()})
+
+
+@dataclass
+class _Steps:
+    """The synchronous relaxation's step variables, per task."""
+
+    number: list      # step number (expression)
+    member: list      # member[j][k]: task j is finished in step k
+    begin: list       # start of the task's step
+    end: list         # end of the task's step
+    wait: list        # steps between the robot's previous finish and this one
+    next_step: list   # wait == 0: finished in the step after the robot's previous finish
+
+
+def _steps(model: cp_model.CpModel, instance: SchedulingInstance, arrival, service, horizon: int,
+           upper_bound: Optional[float]) -> _Steps:
+    n_r, n_t = instance.n_robots, instance.n_tasks
+    count = n_t
+    if upper_bound is not None:
+        # A finishing step lasts at least min_step and some task's shortest incoming leg + service.
+        travel = instance.travel_rows
+        least = min(min(travel[a][n_r + j] for a in range(n_r + n_t) if a != n_r + j) + instance.service[j]
+                    for j in range(n_t))
+        count = max(1, min(n_t, int(upper_bound / max(least, instance.min_step) + 1e-9)))
+    start = [model.NewIntVar(0, horizon, f"start_{k}") for k in range(count + 1)]   # start[k + 1]: end of step k
+    model.Add(start[0] == 0)
+    used = [model.NewBoolVar(f"used_{k}") for k in range(count)]
+    member = [[model.NewBoolVar(f"in_step_{j}_{k}") for k in range(count)] for j in range(n_t)]
+    min_step = BOUND_TIME.floor(instance.min_step)
+    for k in range(count):
+        model.Add(start[k + 1] >= start[k] + min_step).OnlyEnforceIf(used[k])
+        model.Add(start[k + 1] == start[k]).OnlyEnforceIf(used[k].Not())
+        members = [member[j][k] for j in range(n_t)]
+        model.Add(sum(members) <= n_r * used[k])
+        model.Add(sum(members) >= used[k])
+        if k + 1 < count:
+            model.AddImplication(used[k + 1], used[k])
+    result = _Steps([], member, [], [], [], [])
+    for j in range(n_t):
+        model.AddExactlyOne(member[j])
+        result.number.append(sum(k * member[j][k] for k in range(count)))
+        begin = model.NewIntVar(0, horizon, f"begin_{j}")
+        end = model.NewIntVar(0, horizon, f"end_{j}")
+        for k in range(count):
+            model.Add(begin == start[k]).OnlyEnforceIf(member[j][k])
+            model.Add(end == start[k + 1]).OnlyEnforceIf(member[j][k])
+        model.Add(end >= arrival[j] + service[j])
+        result.begin.append(begin)
+        result.end.append(end)
+        wait = model.NewIntVar(0, count, f"wait_{j}")
+        follows = model.NewBoolVar(f"next_step_{j}")
+        model.Add(wait == 0).OnlyEnforceIf(follows)
+        model.Add(wait >= 1).OnlyEnforceIf(follows.Not())
+        result.wait.append(wait)
+        result.next_step.append(follows)
+    return result
+
+
+def _departures(model: cp_model.CpModel, instance: SchedulingInstance, arrival, steps: _Steps,
+                arc_of: Dict[tuple, cp_model.IntVar]) -> None:
+    """Where a task's finisher sets off in its step, and so when it arrives at the earliest (one
+    leg after the step's start): its own start if it is the robot's first task, or the goal of a
+    task finished in an earlier step (its previous one, or one it passed over in a step between;
+    a robot stands on no other node). Finished in the first step, or in the step right after its
+    previous task's: from there (no step in between to pass over another goal). A robot does not
+    wait within a step, so it arrives exactly then; the relaxation lets it arrive later, which
+    keeps the model easy to solve and its bound a bound."""
+    n_r, n_t = instance.n_robots, instance.n_tasks
+    travel = instance.travel_rows
+    depart: Dict[tuple, cp_model.IntVar] = {}
+    for j in range(n_t):
+        b = instance.node(j)
+        options = []
+        for w in range(n_t):
+            if w != j and instance.leg_feasible(instance.node(w), b):
+                lit = depart[w, j] = model.NewBoolVar(f"depart_{w}_{j}")
+                model.Add(steps.number[w] + 1 <= steps.number[j]).OnlyEnforceIf(lit)
+                options.append((lit, travel[instance.node(w)][b]))
+        for r in range(n_r):
+            if (r, -1, j) in arc_of and instance.leg_feasible(r, b):
+                lit = depart[-1 - r, j] = model.NewBoolVar(f"depart_start_{r}_{j}")
+                model.AddImplication(lit, arc_of[r, -1, j])
+                options.append((lit, travel[r][b]))
+        model.AddExactlyOne([lit for lit, _ in options])
+        leg = sum(BOUND_TIME.floor(t) * lit for lit, t in options)
+        model.Add(arrival[j] >= steps.begin[j] + leg)
+    for (r, i, j), lit in arc_of.items():
+        origin = -1 - r if i < 0 else i
+        right_after = steps.member[j][0] if i < 0 else steps.next_step[j]
+        if (origin, j) in depart:
+            model.AddImplication(right_after, depart[origin, j]).OnlyEnforceIf(lit)
+        else:
+            model.AddBoolOr([lit.Not(), right_after.Not()])
+
+
+def _hint(model: cp_model.CpModel, arc_of: Dict[tuple, cp_model.IntVar], plan: Plan) -> None:
+    """The plan's finishers' routes as the first solution's arcs."""
+    run = simulate_joint_actions(plan.instance, [])
+    routes: List[List[int]] = [[] for _ in range(plan.instance.n_robots)]
+    for goals in plan.joint_actions:
+        for done in sorted(run.apply(goals).finished, key=lambda f: f.robot):
+            routes[done.robot].append(done.task)
+    chosen = set()
+    for r, route in enumerate(routes):
+        at = -1
+        for j in route:
+            chosen.add((r, at, j))
+            at = j
+    for key, lit in arc_of.items():
+        model.AddHint(lit, key in chosen)

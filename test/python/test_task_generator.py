@@ -1,0 +1,121 @@
+"""The scenario generator: seeded (same seed, same files), every scenario a valid scenario file
+(the loader's validation) with its poses apart and clear of obstacles and an acyclic staged
+precedence; its command line; and over generated scenarios with chains, forks and joins, every
+method (random, GA, auction, the reference's plan) completes every episode through the
+embedded environment, the plans logic-consistently and as long as planned."""
+import math
+import os
+import subprocess
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import pytest
+from scipy import ndimage
+
+from marl_mrta.baselines.auction import solve_auction
+from marl_mrta.baselines.ga import solve_ga
+from marl_mrta.baselines.random_policy import RandomPolicy
+from marl_mrta.baselines.reference import scheduling_instance, solve_reference
+from marl_mrta.baselines.settings import load_baseline_settings
+from marl_mrta.env.factory import make_env
+from marl_mrta.env.settings import load_embedded_settings, load_task_settings
+from marl_mrta.evaluation.loop import run_episodes
+from marl_mrta.evaluation.policies import PlanPolicy
+from marl_mrta.model.generator import DAG_KINDS, LAYOUTS, GeneratorError, ScenarioRequest, generate_scenario
+from marl_mrta.model.occupancy_map import FREE
+from marl_mrta.model.scenario import footprint_radius, load_scenario
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture(scope="module")
+def travel_model():
+    return load_embedded_settings().travel
+
+
+def test_the_same_seed_gives_the_same_files(tmp_path, travel_model):
+    request = ScenarioRequest(n_robots=3, n_tasks=7, layout="rooms", name="same")
+    generate_scenario(request, 5, tmp_path / "a", travel_model)
+    generate_scenario(request, 5, tmp_path / "b", travel_model)
+    generate_scenario(request, 6, tmp_path / "c", travel_model)
+    for name in ("same.xml", "maps/same.yaml", "maps/same.pgm"):
+        assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes(), name
+    assert (tmp_path / "a" / "same.xml").read_text() != (tmp_path / "c" / "same.xml").read_text()
+
+
+@pytest.mark.parametrize("layout", LAYOUTS + ("shipped", "lab"))
+@pytest.mark.parametrize("dag", DAG_KINDS)
+def test_generated_scenarios_are_valid_files_with_poses_apart_and_clear(tmp_path, layout, dag):
+    request = ScenarioRequest(n_robots=4, n_tasks=9, layout=layout, dag=dag, stages=3, name="s")
+    scenario = generate_scenario(request, 1, tmp_path)
+    assert load_scenario(scenario.source) == scenario          # the file is what was loaded
+    assert (scenario.n_robots, scenario.n_tasks) == (4, 9)
+    poses = [r.start for r in scenario.robots] + [t.goal for t in scenario.tasks]
+    assert min(math.hypot(a.x - b.x, a.y - b.y) for i, a in enumerate(poses) for b in poses[:i]) >= request.spacing - 1e-9
+    grid_map = scenario.load_map()
+    clearance = ndimage.distance_transform_edt(grid_map.grid == FREE) * grid_map.resolution
+    for pose in poses:
+        cell = grid_map.world_to_cell(pose.x, pose.y)
+        assert clearance[cell.row, cell.col] >= request.clearance
+    stage = {t.category for t in scenario.tasks}
+    assert stage == {"A", "B", "C"}
+    for j, task in enumerate(scenario.tasks):
+        before = {scenario.tasks[p].category for p in scenario.predecessors[j]}
+        assert before == (set() if task.category == "A" else {chr(ord(task.category) - 1)})
+        if dag == "chains":
+            assert len(scenario.predecessors[j]) <= 1
+        if dag == "joins" and task.category != "A":
+            assert len(scenario.predecessors[j]) == 2
+    assert {t.service_time for t in scenario.tasks} <= set(request.service_times)
+
+
+def test_requests_out_of_range_are_one_line_errors(tmp_path):
+    for request, message in [(ScenarioRequest(n_robots=17), "robots: 17 is not in 2..16"),
+                             (ScenarioRequest(n_tasks=33), "tasks: 33 is not in 4..32"),
+                             (ScenarioRequest(layout="maze"), "layout: 'maze' is not one of"),
+                             (ScenarioRequest(spacing=0.1), "spacing: 0.1 m is below a robot's footprint")]:
+        with pytest.raises(GeneratorError, match=message):
+            generate_scenario(request, 0, tmp_path)
+    assert footprint_radius() == pytest.approx(0.105)
+
+
+def test_command_line_writes_the_scenarios(tmp_path):
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")]))
+    script = str(ROOT / "scripts" / "generate_scenarios")
+    result = subprocess.run([sys.executable, script, str(tmp_path / "out"), "--count", "3", "--seed", "2",
+                             "--robots", "3", "--tasks", "6"], capture_output=True, text=True, env=env, timeout=120)
+    assert result.returncode == 0, result.stderr
+    written = sorted((tmp_path / "out").glob("*.xml"))
+    assert [p.name for p in written] == ["gen_000.xml", "gen_001.xml", "gen_002.xml"]
+    assert all((load_scenario(p).n_robots, load_scenario(p).n_tasks) == (3, 6) for p in written)
+    bad = subprocess.run([sys.executable, script, str(tmp_path / "bad"), "--robots", "40"], capture_output=True,
+                         text=True, env=env, timeout=120)
+    assert bad.returncode == 2 and bad.stderr.strip() == "generate_scenarios: robots: 40 is not in 2..16"
+
+
+@pytest.fixture(scope="module")
+def generated(tmp_path_factory, travel_model):
+    """Small scenarios of every DAG kind (legs within the goal timeout, as the command line makes them)."""
+    base = ScenarioRequest(max_leg=load_task_settings().goal_timeout, name="done")
+    scenarios = []
+    for k, dag in enumerate(DAG_KINDS * 2):
+        request = replace(base, n_robots=2 + k % 4, n_tasks=5 + k, dag=dag, stages=2 + k % 3,
+                          layout=(LAYOUTS + ("lab",))[k % 4], width=7.0, height=5.0, name=f"done_{k}")
+        scenarios.append(generate_scenario(request, 40 + k, tmp_path_factory.mktemp("generated"), travel_model))
+    return scenarios
+
+
+def test_every_method_completes_every_generated_scenario(generated):
+    settings = load_baseline_settings().with_cpsat(time_limit=1.0)
+    for scenario in generated:
+        env = make_env(scenario, seed=0)
+        instance = scheduling_instance(scenario, env.settings.min_step, env.settings.goal_timeout)
+        plans = [solve_ga(instance, replace(settings.ga, max_evaluations=1500), seed=0), solve_auction(instance)]
+        plans.append(solve_reference(instance, settings, plans).plan)
+        for plan in plans:
+            record = run_episodes(env, PlanPolicy(plan, env.n_agents, env.n_tasks), 1, 0)[0]
+            assert record.complete and record.logic_consistent, (scenario.name, plan.method)
+            assert record.makespan == pytest.approx(plan.makespan, abs=1e-9), (scenario.name, plan.method)
+        for record in run_episodes(env, RandomPolicy(env.n_agents, env.n_tasks, "unfinished", seed=0), 5, 0):
+            assert record.complete, (scenario.name, "random")
