@@ -31,6 +31,7 @@ debian_pkgs=(
   ros-std-msgs ros-geometry-msgs ros-sensor-msgs ros-nav-msgs ros-std-srvs ros-actionlib-msgs
   ros-move-base-msgs ros-visualization-msgs ros-rosgraph-msgs
   xvfb imagemagick x11-utils
+  openssh-server openssh-client python3-paramiko
 )
 noetic_pkgs=(
   build-essential cmake python3-catkin-lint python3-venv python3-pip python3-pytest
@@ -42,6 +43,7 @@ noetic_pkgs=(
   ros-noetic-dwa-local-planner ros-noetic-costmap-2d ros-noetic-fake-localization
   libyaml-cpp-dev libgtest-dev python3-yaml python3-numpy python3-matplotlib
   xvfb imagemagick x11-utils
+  openssh-server openssh-client python3-paramiko
 )
 
 missing() {  # prints the packages of "$@" that dpkg does not have installed

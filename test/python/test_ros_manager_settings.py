@@ -48,3 +48,29 @@ def test_bad_parameters_give_one_line(params, message):
     text = str(error.value)
     assert text.startswith(message)
     assert "\n" not in text
+
+
+def test_real_mode_settings_come_from_the_config_file_and_the_node():
+    settings = read_manager_settings({"scenario": "s.xml", "mode": "real", "localization": "amcl", "reset": "current",
+                                      "go": True, "scan_silent_after": 2.5, "aborted_episode_file": "/tmp/a.json"}, NODE)
+    assert settings.mode == "real"
+    assert settings.real.reset == "current" and settings.real.go
+    assert settings.real.limits.scan_silent_after == 2.5
+    assert settings.real.limits.odom_silent_after == read_yaml(default_config_path("task_manager.yaml")).data["odom_silent_after"]
+    assert settings.real.aborted_episode_file == "/tmp/a.json"
+    assert read_manager_settings({"scenario": "s.xml"}, NODE).mode == "simulation"
+
+
+@pytest.mark.parametrize("params, message", [
+    ({"mode": "robots"}, NODE + "/mode: 'robots' is not one of simulation, real"),
+    ({"mode": "real"}, NODE + "/localization: must be amcl in real mode (real robots have no ground truth), got 'ground_truth'"),
+    ({"reset": "home"}, NODE + "/reset: 'home' is not one of start, current"),
+    ({"go": "yes"}, NODE + "/go: expected true or false, got 'yes'"),
+    ({"odom_silent_after": 0}, NODE + "/odom_silent_after: must be > 0.0, got 0.0"),
+    ({"master_lost_after": "1s"}, NODE + "/master_lost_after: expected a number, got '1s'"),
+    ({"stop_hold": -1}, NODE + "/stop_hold: must be >= 0.0, got -1.0"),
+])
+def test_bad_real_mode_parameters_are_one_line(params, message):
+    with pytest.raises(ConfigError) as error:
+        read_manager_settings({"scenario": "s.xml", **params}, NODE)
+    assert str(error.value) == message

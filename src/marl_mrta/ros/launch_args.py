@@ -1,15 +1,18 @@
-"""Values launch/tasks.launch takes from a scenario file, so that the simulator runs the
-scenario's map and robots at its start poses (called from a launch file's $(eval)).
+"""Values launch files take from a scenario or the simulator's parameter file, so that the
+simulator runs the scenario's map and robots at its start poses and every robot's localisation
+starts there (called from a launch file's $(eval)).
 
 A scenario that cannot be loaded gives values that start a valid graph (the lab, one robot):
 the task manager then reports the scenario's problem in its one-line FATAL and ends the launch.
 """
 from __future__ import annotations
 
-from typing import Union
+from typing import Sequence, Union
 
-from marl_mrta.model.scenario import ScenarioError, load_scenario
+from marl_mrta.common.config import ConfigError, read_yaml
 from marl_mrta.common.paths import package_root
+from marl_mrta.model.scenario import ScenarioError, load_scenario
+
 
 
 def scenario_value(path: str, key: str) -> Union[int, str]:
@@ -24,5 +27,94 @@ def scenario_value(path: str, key: str) -> Union[int, str]:
     if key == "map":
         return str(scenario.map_path.resolve())
     if key == "start_poses":
-        return "[" + ", ".join(f"[{r.start.x!r}, {r.start.y!r}, {r.start.yaw!r}]" for r in scenario.robots) + "]"
+        return pose_list([(r.start.x, r.start.y, r.start.yaw) for r in scenario.robots])
     raise KeyError(f"scenario_value: unknown key {key!r} (robots, map, start_poses)")
+
+
+def pose_list(poses: Sequence[Sequence[float]]) -> str:
+    """Poses as the YAML (and Python) list launch files pass on: [[x, y, yaw], ...]."""
+    return "[" + ", ".join(f"[{float(x)!r}, {float(y)!r}, {float(yaw)!r}]" for x, y, yaw in poses) + "]"
+
+
+def config_start_poses(path: str) -> str:
+    """`start_poses` of a simulator parameter file (config/sim.yaml); the lab's first pose when
+    the file cannot be read (the simulator then reports the file's problem itself)."""
+    try:
+        poses = read_yaml(path).raw("start_poses")
+        return pose_list(poses)
+    except (ConfigError, TypeError, ValueError):
+        return "[[0.5, 0.5, 0.0]]"
+
+
+#: A fleet file's keys per robot (config/fleet_example.yaml): how roslaunch reaches it over SSH.
+FLEET_DEFAULTS = {"ssh_port": 22, "timeout": 10.0}
+
+
+def read_fleet(path: str) -> dict:
+    """The fleet file: robot namespace -> {address, user, env_loader, ssh_port, timeout}; strict
+    (an unknown or missing key is a ConfigError naming the file and key)."""
+    fleet = read_yaml(path)
+    machines = {}
+    for robot in fleet.keys():
+        entry = fleet.section(robot)
+        machines[robot] = {"address": entry.string("address", allow_empty=False),
+                           "user": entry.string("user", allow_empty=False),
+                           "env_loader": entry.string("env_loader", allow_empty=False),
+                           "ssh_port": entry.integer("ssh_port", FLEET_DEFAULTS["ssh_port"], minimum=1, maximum=65535),
+                           "timeout": entry.number("timeout", FLEET_DEFAULTS["timeout"], above=0.0)}
+    fleet.check_all_used()
+    return machines
+
+
+def fleet_value(path: str, robot: str, key: str) -> str:
+    """One value of a robot's machine in the fleet file (launch/include/real_robot.launch's
+    <machine> tag); a ValueError with one line when the file or the robot's entry is bad."""
+    try:
+        machines = read_fleet(path)
+    except ConfigError as error:
+        raise ValueError(f"fleet: {error}") from None
+    if robot not in machines:
+        raise ValueError(f"fleet: {path}: no entry for robot {robot} (it has {', '.join(machines) or 'none'})")
+    return str(machines[robot][key])
+
+
+def real_robots(robots: str, scenario: str) -> str:
+    """real.launch's `robots` checked against the scenario's robots (the task manager drives the
+    scenario's robot ids as namespaces): the names, space-separated (the scenario's when `robots`
+    is empty); a ValueError if they differ."""
+    names = robots.replace(",", " ").split()
+    try:
+        ids = [robot.id for robot in load_scenario(scenario).robots]
+    except ScenarioError:
+        return " ".join(names) or "tb3_0"   # the task manager reports the scenario's problem itself
+    if not names:
+        return " ".join(ids)
+    if names != ids:
+        raise ValueError(f"real.launch: robots:='{' '.join(names)}' are not the robots of {scenario} "
+                         f"({' '.join(ids)}): give robots:='{' '.join(ids)}' or a scenario of these robots")
+    return " ".join(names)
+
+
+#: real.launch's arguments that take one of a few values (method: policy, or evaluate's methods).
+REAL_CHOICES = {"method": ("policy", "exact", "ga", "auction", "random"), "stand_in_processes": ("one", "per_robot"),
+                "nav": ("auto", "builtin", "stock"), "reset": ("start", "current")}
+
+
+def noise_profiles() -> tuple:
+    """The simulator's noise profiles (config/noise_profiles.yaml); ideal alone if it cannot be read
+    (the simulator then reports the file itself)."""
+    try:
+        return tuple(read_yaml(str(package_root() / "config" / "noise_profiles.yaml")).keys())
+    except ConfigError:
+        return ("ideal",)
+
+
+def real_choices(**values: str) -> bool:
+    """real.launch's choice arguments checked: True, or a ValueError in one line naming the first bad one."""
+    choices = dict(REAL_CHOICES, noise_profile=noise_profiles())
+    for name, value in values.items():
+        parts = [value] if name != "method" or value == "policy" else value.split(",")
+        if not value or any(part not in choices[name] or (name == "method" and len(parts) > 1 and part == "policy")
+                            for part in parts):
+            raise ValueError(f"real.launch: {name}:='{value}': must be one of {', '.join(choices[name])}")
+    return True

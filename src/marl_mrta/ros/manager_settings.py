@@ -13,9 +13,18 @@ from typing import Any, Dict, Optional
 from marl_mrta.env.settings import MASK_MODES
 from marl_mrta.common.config import ConfigError, node_parameters, read_yaml
 from marl_mrta.common.paths import default_config_path
+from marl_mrta.ros.safety import SafetyLimits
 
+#: How the robots are localised: from ground truth (nothing to do on a reset) or by amcl (told the
+#: reset poses through initialpose).
+LOCALIZATIONS = ("ground_truth", "amcl")
 #: Private parameters the node writes itself for its clients; never read as settings.
 OUTPUT_PARAMETERS = ("env",)
+#: What the robots are: the simulator (lock-step, teleporting resets) or real robots (wall time,
+#: resets by driving, the operator's go, safe stops; ros/real_executor.py).
+MODES = ("simulation", "real")
+#: Real mode: where an episode starts: the scenario's start poses (driven to) or where the robots stand.
+RESETS = ("start", "current")
 
 
 @dataclass(frozen=True)
@@ -29,6 +38,23 @@ class RosExecutorSettings:
     graph_wait: float = 60.0            # s of wall time to wait for the simulator and move_base at start
     align_period: float = 1.0           # s of sim time: steps start on multiples of it (0: no alignment)
     map_frame: str = "map"
+    localization: str = "ground_truth"  # ground_truth (the simulator, fake_localization) | amcl: re-initialised on reset
+    localization_wait: float = 10.0     # s of sim time for amcl_pose to agree with a reset pose
+    localization_settle: float = 0.6    # s of sim time run after it agrees (amcl's transform_tolerance 0.5)
+    localization_tolerance_xy: float = 0.10    # m
+    localization_tolerance_yaw: float = 0.10   # rad
+
+
+@dataclass(frozen=True)
+class RealRobotSettings:
+    """Real mode only (docs/real_robots.md): resets, the operator's go, safe stops."""
+
+    reset: str = "start"                # start: drive to the scenario's start poses | current: start where they stand
+    go: bool = False                    # start each episode without the operator's ~go (unattended)
+    limits: SafetyLimits = SafetyLimits()   # silences and master loss that stop the fleet
+    reset_timeout: float = 120.0        # s of wall time for the robots to reach their start poses
+    stop_hold: float = 1.0              # s of wall time a stop keeps sending zero cmd_vel (10 Hz)
+    aborted_episode_file: str = ""      # JSON file for an aborted episode's record ("": none)
 
 
 @dataclass(frozen=True)
@@ -39,6 +65,8 @@ class ManagerSettings:
     reward_config: Optional[str]   # reward file; None: config/reward.yaml
     marker_period: float           # s of wall time between marker refreshes while robots drive; 0: on changes only
     executor: RosExecutorSettings
+    mode: str = "simulation"       # simulation | real
+    real: RealRobotSettings = RealRobotSettings()
 
 
 def read_manager_settings(params: Dict[str, Any], namespace: str,
@@ -62,9 +90,27 @@ def read_manager_settings(params: Dict[str, Any], namespace: str,
         simulator_lost_after=p.number("simulator_lost_after", above=0.0),
         graph_wait=p.number("graph_wait", above=0.0),
         align_period=p.number("align_period", minimum=0.0),
-        map_frame=p.string("map_frame", allow_empty=False))
+        map_frame=p.string("map_frame", allow_empty=False),
+        localization=p.choice("localization", LOCALIZATIONS),
+        localization_wait=p.number("localization_wait", above=0.0),
+        localization_settle=p.number("localization_settle", minimum=0.0),
+        localization_tolerance_xy=p.number("localization_tolerance_xy", above=0.0),
+        localization_tolerance_yaw=p.number("localization_tolerance_yaw", above=0.0))
+    mode = p.choice("mode", MODES)
+    if mode == "real" and executor.localization != "amcl":
+        raise p.fail("localization", f"must be amcl in real mode (real robots have no ground truth), got "
+                                     f"{executor.localization!r}")
+    limits = SafetyLimits(odom_silent_after=p.number("odom_silent_after", above=0.0),
+                          scan_silent_after=p.number("scan_silent_after", above=0.0),
+                          move_base_silent_after=p.number("move_base_silent_after", above=0.0),
+                          master_lost_after=p.number("master_lost_after", above=0.0))
+    real = RealRobotSettings(reset=p.choice("reset", RESETS), go=p.boolean("go"), limits=limits,
+                             reset_timeout=p.number("reset_timeout", above=0.0),
+                             stop_hold=p.number("stop_hold", minimum=0.0),
+                             aborted_episode_file=p.string("aborted_episode_file"))
     settings = ManagerSettings(scenario=scenario, mask=mask or None, task_config=p.string("task_config") or None,
                                reward_config=p.string("reward_config") or None,
-                               marker_period=p.number("marker_period", minimum=0.0), executor=executor)
+                               marker_period=p.number("marker_period", minimum=0.0), executor=executor,
+                               mode=mode, real=real)
     p.check_all_used(known=[k for k in values if k in p.used])
     return settings

@@ -1,8 +1,9 @@
 """rl_task_allocation_manager: the decision process of one arena on the ROS graph.
 
 A thin shell: the scenario, task rules, reward and episode logic are the ROS-free
-env.task_env.TaskEnvironment; this class gives it a RosExecutor, serves `~reset` and
-`~step`, publishes the paper's topics and the rviz markers, and writes `~env` (the
+env.task_env.TaskEnvironment; this class gives it an executor (`mode`: simulation, the
+RosExecutor; real, the RealExecutor of real robots with ros/real_mode.py's services), serves
+`~reset` and `~step`, publishes the paper's topics and the rviz markers, and writes `~env` (the
 environment's sizes and settings) for clients such as ros/env_client.py.
 """
 from __future__ import annotations
@@ -27,6 +28,8 @@ from marl_mrta.ros.executor import RosExecutor
 from marl_mrta.ros.manager_settings import ManagerSettings
 from marl_mrta.ros.markers import task_markers
 from marl_mrta.ros.move_base_link import yaw_to_quaternion
+from marl_mrta.ros.real_executor import RealExecutor
+from marl_mrta.ros.real_mode import RealModeServices
 from marl_mrta.ros.sim_clock import SimulatorLost
 
 
@@ -37,7 +40,11 @@ class TaskManagerNode:
         self.settings = settings
         self.scenario = load_scenario(settings.scenario)
         task_settings = load_task_settings(settings.task_config)
-        self.executor = RosExecutor(self.scenario, replace(settings.executor, goal_timeout=task_settings.goal_timeout))
+        executor_settings = replace(settings.executor, goal_timeout=task_settings.goal_timeout)
+        self.real = settings.mode == "real"
+        self.executor = (RealExecutor(self.scenario, executor_settings, settings.real) if self.real
+                         else RosExecutor(self.scenario, executor_settings))
+        self.real_services: Optional[RealModeServices] = None
         self.env = make_env(self.scenario, executor=self.executor, mask=settings.mask,
                             task_config=settings.task_config, reward_config=settings.reward_config)
         self.robot_ns = self.executor.namespaces
@@ -55,9 +62,13 @@ class TaskManagerNode:
     def start(self) -> None:
         """Waits for the graph, puts the robots on their start poses, then serves."""
         self.executor.wait_for_graph()
-        self.env.reset()
+        if self.real:   # real robots drive to their start and wait for the operator at each reset
+            self.real_services = RealModeServices(self.executor, self.scenario, self._lock, self._partial_record,
+                                                  self.settings.real.aborted_episode_file)
+        else:
+            self.env.reset()
         env = self.env
-        rospy.set_param("~env", {
+        rospy.set_param("~env", {"mode": self.settings.mode,
             "scenario": str(self.scenario.source.resolve()), "robots": self.robot_ns,
             "n_agents": env.n_agents, "n_actions": env.n_actions, "obs_dim": env.obs_dim,
             "state_dim": env.state_dim, "mask": env.settings.mask, "min_step": env.settings.min_step,
@@ -106,7 +117,15 @@ class TaskManagerNode:
             if output.done or output.truncated:
                 self._episode_running = False
                 self._log_end(output)
+                if self.real_services is not None and output.info.abort_reason:
+                    self.real_services.write_aborted(output.info.episode)
             return TaskStepResponse(output=to_message(output))
+
+    def _partial_record(self):
+        """The running episode's record so far (real mode's shutdown stop), None between episodes."""
+        if not self._episode_running or self.env.record is None or self.env.over:
+            return None
+        return replace(self.env.record, makespan=self.env.elapsed)
 
     def _check_actions(self, actions: Sequence[int]) -> str:
         if not self._episode_running:
@@ -165,6 +184,8 @@ class TaskManagerNode:
             if only_while_driving and not self._driving.is_set():
                 return
             env = self.env
+            if env.record is None:   # real robots: no episode yet
+                return
             xy = [(p[0], p[1]) for p in self.executor.poses()]
             self.pub_markers.publish(task_markers(self.scenario, self.settings.executor.map_frame, rospy.Time.now(),
                                                   list(env.finished), list(env.task_correct), list(self._assigned),

@@ -1,0 +1,120 @@
+"""What the real executor hears from and sends to a fleet of real robots, besides goals: every
+robot's odometry, scan and move_base status (to tell a silent one), the ROS master's answers, and
+the stop itself (every goal cancelled, zero cmd_vel, held for a moment). The decisions are the
+ROS-free ros/safety.py's; this module only moves messages and runs the watchdog.
+"""
+from __future__ import annotations
+
+import socket
+import threading
+import time
+import xmlrpc.client
+from typing import Callable, List, Sequence
+
+import rosgraph
+import rospy
+from geometry_msgs.msg import Twist
+
+from marl_mrta.ros.move_base_link import MoveBaseLink
+from marl_mrta.ros.safety import SafetyMonitor, hold_times
+
+#: How often the watchdog asks the monitor, and the master is asked for its pid [wall s].
+WATCH_PERIOD = 0.05
+MASTER_PERIOD = 0.1
+#: The zero command's period while a stop is held [wall s].
+HOLD_PERIOD = 0.1
+
+
+class _TimeoutTransport(xmlrpc.client.Transport):
+    """An XML-RPC transport whose connections give up after `timeout` s (rosgraph's have none)."""
+
+    def __init__(self, timeout: float):
+        super().__init__()
+        self.timeout = timeout
+
+    def make_connection(self, host):
+        connection = super().make_connection(host)
+        connection.timeout = self.timeout
+        return connection
+
+
+class FleetStop:
+    """Stops every robot: cancels all goals of its move_base and sends zero cmd_vel at once,
+    then every HOLD_PERIOD for `hold` s (a command move_base had in flight cannot outlast it)."""
+
+    def __init__(self, namespaces: Sequence[str], bases: Sequence[MoveBaseLink], hold: float):
+        self.namespaces = list(namespaces)
+        self.bases = list(bases)
+        self.hold = hold
+        # Made at start: a publisher made when the stop is due would still be connecting.
+        self._cmd_vel = [rospy.Publisher("/" + ns + "/cmd_vel", Twist, queue_size=1, tcp_nodelay=True)
+                         for ns in self.namespaces]
+        self._holding = threading.Event()
+
+    def robots_not_listening(self) -> List[str]:
+        """Robots whose base (turtlebot3_core) does not subscribe to the manager's cmd_vel."""
+        return [ns for ns, pub in zip(self.namespaces, self._cmd_vel) if pub.get_num_connections() == 0]
+
+    def stop(self) -> None:
+        for base in self.bases:
+            base.cancel_all()
+        self._send_zero()
+        if self.hold > 0.0 and not self._holding.is_set():
+            self._holding.set()
+            threading.Thread(target=self._hold, daemon=True, name="stop_hold").start()
+
+    def wait_hold(self, timeout: float) -> None:
+        """Returns once a held stop has sent its last zero command (at most `timeout` s)."""
+        deadline = time.monotonic() + timeout
+        while self._holding.is_set() and time.monotonic() < deadline:
+            time.sleep(0.01)
+
+    def _send_zero(self) -> None:
+        for pub in self._cmd_vel:
+            pub.publish(Twist())
+
+    def _hold(self) -> None:
+        start = time.monotonic()
+        for due in hold_times(start, self.hold, HOLD_PERIOD)[1:]:
+            time.sleep(max(0.0, due - time.monotonic()))
+            self._send_zero()
+        self._holding.clear()
+
+
+class FleetWatch:
+    """Feeds a SafetyMonitor from the graph and calls `on_fault(reason)` when it finds a fault
+    while the fleet is not stopped already."""
+
+    def __init__(self, namespaces: Sequence[str], monitor: SafetyMonitor, on_fault: Callable[[str], None]):
+        self.monitor = monitor
+        self.on_fault = on_fault
+        for i, ns in enumerate(namespaces):
+            for part, topic in (("odom", "odom"), ("scan", "scan"), ("move_base", "move_base/status")):
+                # AnyMsg: only the arrival counts, nothing is deserialised.
+                rospy.Subscriber("/" + ns + "/" + topic, rospy.AnyMsg, self._on_message, (i, part), queue_size=1,
+                                 tcp_nodelay=True)
+        self._master_uri = rosgraph.get_master_uri()
+        threading.Thread(target=self._watch_master, daemon=True, name="master_watch").start()
+        threading.Thread(target=self._watch, daemon=True, name="fleet_watch").start()
+
+    def _on_message(self, _msg, robot_part) -> None:
+        self.monitor.heard(robot_part[0], robot_part[1], time.monotonic())
+
+    def _watch_master(self) -> None:
+        timeout = max(0.05, min(0.5, self.monitor.limits.master_lost_after / 2.0))
+        master = xmlrpc.client.ServerProxy(self._master_uri, transport=_TimeoutTransport(timeout))
+        while not rospy.core.is_shutdown():
+            try:
+                master.getPid(rospy.get_name())
+                self.monitor.master_answered(time.monotonic())
+            except (OSError, socket.timeout, xmlrpc.client.Error) as error:
+                self.monitor.master_failed(f"{self._master_uri}: {error}")
+            time.sleep(MASTER_PERIOD)
+
+    def _watch(self) -> None:
+        while not rospy.core.is_shutdown():
+            if not self.monitor.tripped:
+                reason = self.monitor.fault(time.monotonic())
+                if reason:
+                    self.on_fault(reason)
+            time.sleep(WATCH_PERIOD)

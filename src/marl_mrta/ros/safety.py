@@ -1,0 +1,130 @@
+"""The safety rules of real robots, without ROS: when the fleet must stop, and why.
+
+The real executor (ros/real_executor.py) reports to a SafetyMonitor every message it hears from
+each robot (odometry, scan, move_base status) and every answer or failure of the ROS master, and
+asks it, several times a second, whether to stop. Once tripped, the monitor keeps its first
+reason until it is re-armed (a new episode's reset), so a stop is never undone by a robot that
+comes back. Faults from elsewhere (an e-stop, the node shutting down, a move_base goal that
+aborted) trip it directly. Times are seconds of a monotonic wall clock.
+"""
+from __future__ import annotations
+
+import math
+import threading
+from dataclasses import dataclass
+from typing import Dict, List, Optional, Sequence, Tuple
+
+#: What the monitor hears from each robot, and what each part is called in a reason.
+PARTS = ("odom", "scan", "move_base")
+
+
+@dataclass(frozen=True)
+class SafetyLimits:
+    """How long each part may stay silent, and the master unreachable, before the fleet stops [s]."""
+
+    odom_silent_after: float = 1.0       # turtlebot3_core publishes odometry at 30 Hz
+    scan_silent_after: float = 1.0       # the LDS-01 turns at 5 Hz
+    move_base_silent_after: float = 2.0  # move_base publishes its action status at 5 Hz
+    master_lost_after: float = 1.0       # the ROS master does not answer for this long (a loaded PC stalls it 0.5 s)
+
+    def silent_after(self, part: str) -> float:
+        return {"odom": self.odom_silent_after, "scan": self.scan_silent_after,
+                "move_base": self.move_base_silent_after}[part]
+
+
+class SafetyMonitor:
+    """The fleet's stop decision. Thread-safe: callbacks report, a watchdog thread checks."""
+
+    def __init__(self, robots: Sequence[str], limits: SafetyLimits):
+        self.robots = list(robots)
+        self.limits = limits
+        self._lock = threading.Lock()
+        self._heard: Dict[Tuple[int, str], float] = {}
+        self._master_ok: Optional[float] = None      # last answer of the master
+        self._master_error = ""
+        self._reason = ""
+        self._tripped_at: Optional[float] = None
+        self._armed_at: Optional[float] = None        # silence counts from here at the earliest
+
+    # ------------------------------------------------------------------ reports
+    def heard(self, robot: int, part: str, now: float) -> None:
+        with self._lock:
+            self._heard[(robot, part)] = now
+
+    def master_answered(self, now: float) -> None:
+        with self._lock:
+            self._master_ok, self._master_error = now, ""
+
+    def master_failed(self, error: str) -> None:
+        with self._lock:
+            self._master_error = error
+
+    # ------------------------------------------------------------------ decisions
+    def missing(self) -> List[str]:
+        """"<robot> <part>" for every part not heard from yet (start-up)."""
+        with self._lock:
+            return [f"{ns} {part}" for i, ns in enumerate(self.robots) for part in PARTS if (i, part) not in self._heard]
+
+    def fault(self, now: float) -> str:
+        """Why the fleet must stop now ("" when nothing is wrong). Parts never heard count from
+        the arming time (start-up has its own wait, missing())."""
+        with self._lock:
+            armed = self._armed_at
+            for i, ns in enumerate(self.robots):
+                for part in PARTS:
+                    last = self._heard.get((i, part), armed)
+                    if last is None:
+                        continue
+                    silent = now - last
+                    if silent > self.limits.silent_after(part):
+                        return f"{ns}: {part} silent for {silent:.1f} s"
+            if self._master_ok is not None and now - self._master_ok > self.limits.master_lost_after:
+                detail = f" ({self._master_error})" if self._master_error else ""
+                return f"ROS master unreachable for {now - self._master_ok:.1f} s{detail}"
+        return ""
+
+    def check(self, now: float) -> str:
+        """Trips on a fault; returns the reason the fleet is stopped ("" while it may drive)."""
+        if not self.tripped:
+            reason = self.fault(now)
+            if reason:
+                self.trip(reason, now)
+        return self.reason
+
+    def trip(self, reason: str, now: float) -> bool:
+        """Stops the fleet for `reason`; False when it was already stopped (the first reason stays)."""
+        with self._lock:
+            if self._reason:
+                return False
+            self._reason, self._tripped_at = reason, now
+            return True
+
+    def rearm(self, now: float) -> str:
+        """Clears a stop (a new episode) unless a fault persists; returns that fault or ""."""
+        with self._lock:
+            self._reason, self._tripped_at, self._armed_at = "", None, now
+        return self.check(now)
+
+    @property
+    def tripped(self) -> bool:
+        with self._lock:
+            return bool(self._reason)
+
+    @property
+    def reason(self) -> str:
+        with self._lock:
+            return self._reason
+
+    @property
+    def tripped_at(self) -> Optional[float]:
+        with self._lock:
+            return self._tripped_at
+
+
+def hold_times(start: float, hold: float, period: float) -> List[float]:
+    """When to send the zero command of a stop: at once, then every `period` s for `hold` s, so
+    that a command a navigation node had in flight cannot outlast it."""
+    if hold <= 0.0 or period <= 0.0:
+        return [start]
+    count = int(math.floor(hold / period + 1e-9))
+    return [start + k * period for k in range(count + 1)]

@@ -1,0 +1,89 @@
+"""Helpers of the real-robot rostests: real.launch as a child launch on the test's master, the
+robots' commands as they travel on cmd_vel, a node's process id."""
+import os
+import signal
+import subprocess
+import threading
+import time
+import xmlrpc.client
+
+import rosgraph
+import rosnode
+import rospy
+from geometry_msgs.msg import Twist
+
+from marl_mrta.ros.process_group import stop_process_group
+
+ROBOTS = ("tb3_0", "tb3_1")
+
+
+def start_real_launch(args, log_path, env=None):
+    """`roslaunch marl_mrta real.launch ARGS` in a session of its own (stopped with its nodes)."""
+    log = open(log_path, "w")
+    return subprocess.Popen(["roslaunch", "marl_mrta", "real.launch", *args], stdout=log, stderr=subprocess.STDOUT,
+                            start_new_session=True, env=env)
+
+
+def wait_exit(process, timeout):
+    """The launch's exit code, or None (and the launch stopped) when it did not end in time."""
+    try:
+        return process.wait(timeout)
+    except subprocess.TimeoutExpired:
+        stop_process_group(process)
+        return None
+
+
+def node_pid(name, caller="/real_test"):
+    uri = rosnode.get_api_uri(rosgraph.Master(caller), name)
+    if not uri:
+        return None
+    code, _, pid = xmlrpc.client.ServerProxy(uri).getPid(caller)
+    return pid if code == 1 else None
+
+
+def interrupt_node(name):
+    """What Ctrl-C does to a node of a launch: SIGINT to its process; returns the wall time."""
+    pid = node_pid(name)
+    assert pid, f"{name} is not running"
+    os.kill(pid, signal.SIGINT)
+    return time.monotonic()
+
+
+def kill_node(name):
+    pid = node_pid(name)
+    assert pid, f"{name} is not running"
+    os.kill(pid, signal.SIGKILL)
+    return time.monotonic()
+
+
+class CommandWatch:
+    """Every command on each robot's cmd_vel, as (wall time, linear, angular)."""
+
+    def __init__(self, robots=ROBOTS):
+        self.lock = threading.Lock()
+        self.commands = {ns: [] for ns in robots}
+        for ns in robots:
+            rospy.Subscriber("/%s/cmd_vel" % ns, Twist, self._on_command, ns, queue_size=100, tcp_nodelay=True)
+
+    def _on_command(self, msg, ns):
+        with self.lock:
+            self.commands[ns].append((time.monotonic(), msg.linear.x, msg.angular.z))
+
+    def of(self, ns):
+        with self.lock:
+            return list(self.commands[ns])
+
+    def driving(self, since_wall):
+        """Every robot was sent a moving command after `since_wall`."""
+        with self.lock:
+            return all(any(t > since_wall and (abs(v) > 0.05 or abs(w) > 0.2) for t, v, w in cmds)
+                       for cmds in self.commands.values())
+
+    def wait_driving(self, timeout):
+        start = time.monotonic()
+        deadline = start + timeout
+        while time.monotonic() < deadline:
+            if self.driving(start):
+                return True
+            time.sleep(0.05)
+        return False
