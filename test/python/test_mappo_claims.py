@@ -9,8 +9,9 @@ from marl_mrta.evaluation.loop import run_episodes
 from marl_mrta.mappo.claims import ClaimRules, claimed_flags, with_claims
 from marl_mrta.mappo.config import ConfigError, config_from_dict
 from marl_mrta.mappo.networks import Actor
-from marl_mrta.mappo.policy import ActorPolicy, load_policy
+from marl_mrta.mappo.policy import ActorPolicy, SetActorPolicy, load_policy
 from marl_mrta.mappo.runner import Runner
+from marl_mrta.mappo.training_env import set_view_pool
 from marl_mrta.evaluation.training import on_new_env
 from marl_mrta.evaluation.decentralised import ChoiceBoard, DecentralisedPolicy
 from marl_mrta.evaluation.robot_actor import ObservationError, RobotActor
@@ -105,19 +106,27 @@ def test_training_never_gives_a_task_twice_in_a_step(tmp_path):
     assert runner.buffer.obs.shape[-1] == runner.pool.obs_dim + 8 + 4
 
 
-def test_team_actor_and_per_robot_actors_decide_alike(tmp_path):
+@pytest.mark.parametrize("actor", ["mlp", "set"])
+def test_team_actor_and_per_robot_actors_decide_alike(tmp_path, actor):
     """act_team (evaluation) and the robots' own actors, asked in turn with the claimed tasks
-    (DecentralisedPolicy), give the same episodes; an actor file keeps the claim rules."""
-    config = small_config()
+    (DecentralisedPolicy), give the same episodes; an actor file keeps the claim rules. The set
+    actor (mappo/set_networks.py) reads who claimed what (the claimer's leg): the marks reach the
+    robots' own actors too."""
+    scenario = load_scenario(LAB_4R)
     build = lambda: make_env(LAB_4R, "embedded", mask="finished")  # noqa: E731
+    if actor == "set":
+        config = small_config(actor="set", append_agent_id=False, set_heads=2, set_layers=1)
+        pool = set_view_pool(config, [LAB_4R], seed=1)
+    else:
+        config, pool = small_config(), None
     runner = Runner(config, build, evaluate=on_new_env(build), scenario="lab_4r", seed=1,
-                    out_dir=tmp_path, tensorboard=False, plots=False)
+                    out_dir=tmp_path, tensorboard=False, plots=False, pool=pool)
     runner.start()
     runner.train_one_update()
     runner.save_checkpoint()
-    policy = load_policy(tmp_path / "actor.pt")
+    policy = load_policy(tmp_path / "actor.pt", scenario=scenario)
     assert policy.sequential and policy.decision_order == "sequential_logic"
-    scenario = load_scenario(LAB_4R)
+    assert isinstance(policy, SetActorPolicy) == (actor == "set")
 
     class Team:
         name = "team"

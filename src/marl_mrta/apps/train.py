@@ -17,9 +17,11 @@ from marl_mrta.common.paths import package_root
 from marl_mrta.evaluation.training import in_pool, on_new_env
 from marl_mrta.mappo.config import MappoConfig, config_from_dict, load_config, resolve_preset
 from marl_mrta.mappo.runner import RunError, Runner
-from marl_mrta.mappo.training_env import embedded_factory
+from marl_mrta.mappo.training_env import embedded_factory, set_view_pool
 from marl_mrta.model.scenario import ScenarioError
 
+#: The preset a run uses unless --preset names another (config/mappo/tuned.yaml).
+DEFAULT_PRESET = "tuned"
 #: Backends an environment can be built with by this command.
 BACKENDS = ("embedded", "ros")
 #: Errors of user input; each prints as one line.
@@ -32,7 +34,8 @@ def build_parser() -> argparse.ArgumentParser:
                         help="scenario XML (default: the package's scenarios/lab_2r.xml; ros: the managers' scenario, "
                              "checked when given)")
     parser.add_argument("--preset", default=None,
-                        help="tuned | paper | path to a YAML of MAPPO settings (default tuned; see config/mappo/)")
+                        help="tuned | sequential | paper | set | path to a YAML of MAPPO settings "
+                             "(default tuned; set: the set actor, any scenario size; see config/mappo/)")
     parser.add_argument("--backend", choices=BACKENDS, default="embedded",
                         help="embedded: the embedded executor; ros: running task managers in the ROS simulation")
     parser.add_argument("--arenas", type=int, default=None,
@@ -46,6 +49,10 @@ def build_parser() -> argparse.ArgumentParser:
                         help="run directory (default: the package's results/runs/<scenario>_<preset>_s<seed>)")
     parser.add_argument("--resume", action="store_true",
                         help="continue the run in --out from its checkpoint (its stored settings and seed)")
+    parser.add_argument("--init", default=None, metavar="ACTOR",
+                        help="start from a set actor's file (actor.pt of a run with actor: set), fine-tuning it "
+                             "on the scenario (settings with actor: set); none: new weights "
+                             "(default: the preset's init_actor)")
     return parser
 
 
@@ -84,10 +91,16 @@ def _backend(args: argparse.Namespace, config: MappoConfig, seed: int, scenario:
     """Runner arguments of the chosen backend (environments and their greedy evaluation) and the
     scenario it runs."""
     if args.backend == "ros":
+        if config.actor == "set":
+            raise RunError("--backend ros: the set actor trains on the embedded backend (actor: set); "
+                           "check it in ROS with evaluate.launch method:=policy")
         from marl_mrta.ros.arena_pool import arena_pool
         pool, scenario = arena_pool(config, seed, scenario, args.manager_wait)
         return {"make_env": None, "pool": pool, "evaluate": in_pool(pool), "scenario": scenario}
     make_env = embedded_factory(scenario, config)
+    if config.actor == "set":
+        return {"make_env": make_env, "evaluate": on_new_env(make_env), "scenario": scenario,
+                "pool": set_view_pool(config, [scenario], seed)}
     return {"make_env": make_env, "evaluate": on_new_env(make_env), "scenario": scenario}
 
 
@@ -99,7 +112,9 @@ def _resumed_runner(args: argparse.Namespace, log: Callable[[str], None]) -> Run
     # A resumed run keeps its settings; contradicting arguments are an error, not ignored.
     if args.seed is not None and args.seed != stored["seed"]:
         raise RunError(f"--seed: {args.seed} differs from the run's seed {stored['seed']}; resume keeps the stored one")
-    if (args.preset is not None or args.set) and _settings(args, args.preset or "tuned") != config:
+    if args.init is not None:
+        raise RunError("--init: a resumed run continues from its checkpoint; --init starts a new one")
+    if (args.preset is not None or args.set) and _settings(args, args.preset or DEFAULT_PRESET) != config:
         raise RunError(f"--preset/--set: the settings differ from those stored in {args.out}/checkpoint.pt")
     if args.backend == "ros" and args.arenas is not None and args.arenas != config.n_envs:
         raise RunError(f"--arenas: {args.arenas} differs from the run's {config.n_envs} environments")
@@ -112,7 +127,7 @@ def _resumed_runner(args: argparse.Namespace, log: Callable[[str], None]) -> Run
 
 
 def _fresh_runner(args: argparse.Namespace, log: Callable[[str], None]) -> Runner:
-    preset = args.preset or "tuned"
+    preset = args.preset or DEFAULT_PRESET
     seed = 0 if args.seed is None else args.seed
     config = _settings(args, preset)
     scenario_arg = args.scenario if args.scenario is not None else (
@@ -123,11 +138,14 @@ def _fresh_runner(args: argparse.Namespace, log: Callable[[str], None]) -> Runne
     suffix = f"_ros{config.n_envs}" if args.backend == "ros" else ""
     run_name = f"{Path(scenario).stem}_{Path(preset).stem}{suffix}_s{seed}"
     out = Path(args.out) if args.out else package_root() / "results" / "runs" / run_name
+    init = None if args.init is None else ("" if args.init == "none" else args.init)
     runner = Runner(config, backend["make_env"], evaluate=backend["evaluate"], scenario=scenario, seed=seed,
-                    out_dir=out, log=log, pool=backend.get("pool"))
+                    out_dir=out, log=log, pool=backend.get("pool"), init_actor=init)
     runner.start()
     where = f"{config.n_envs} ROS arenas" if args.backend == "ros" else f"{config.n_envs} embedded environments"
-    log(f"train: {scenario} with preset {preset}, seed {seed}, {config.n_updates} updates of "
+    started_from = config.init_actor if init is None else init
+    start = f", starting from {started_from}" if started_from else ""
+    log(f"train: {scenario} with preset {preset}, seed {seed}{start}, {config.n_updates} updates of "
         f"{config.batch_size} steps on {where} -> {out}")
     return runner
 

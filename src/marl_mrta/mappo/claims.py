@@ -15,9 +15,11 @@ claimed tasks, nothing else.
 """
 from __future__ import annotations
 
-from typing import Callable, Sequence
+from typing import Callable, Optional, Sequence
 
 import torch
+
+from marl_mrta.env.observation import ROBOT_FEATURES, SELF_FEATURES, TASK_FEATURES, TIME_CAP, SetLayout, feature
 
 
 def is_sequential(decision_order: str) -> bool:
@@ -44,6 +46,39 @@ def with_claims(obs: torch.Tensor, claimed: torch.Tensor) -> torch.Tensor:
     return torch.cat([obs, claimed.to(obs.dtype)], dim=-1)
 
 
+def with_set_claims(rows: torch.Tensor, claimed: torch.Tensor, precedence: Optional[torch.Tensor] = None) -> torch.Tensor:
+    """Set rows (..., width) of one robot (env/observation.py, SetLayout) with the claimed tasks
+    (..., task_slots; ClaimRules.decide_in_turn's marks: k + 1 = robot k's, 0 = free) marked in
+    their tokens: the flag and the claimer's leg (how long its trip makes the step); on the robot
+    itself the longest of those legs (the step's length so far). Flags alone (bool) name no
+    claimer: the leg is then that of the nearest robot that decided before. With the precedence
+    ([..., task, predecessor], ClaimRules.precedence), each task's margin: this robot's arrival
+    there minus the finish of its latest claimed predecessor (arriving first breaks the order)."""
+    layout = SetLayout.of(rows.shape[-1], claimed.shape[-1])
+    own, robots, tasks, travel = layout.split(rows)
+    flags = claimed > 0 if claimed.dtype != torch.bool else claimed
+    if claimed.dtype == torch.bool:
+        decided = (robots[..., feature(ROBOT_FEATURES, "decided")] > 0.5) & (robots[..., feature(ROBOT_FEATURES, "valid")] > 0.5)
+        legs = torch.where(decided.unsqueeze(-1), travel, torch.full_like(travel, float("inf"))).amin(dim=-2)
+    else:
+        legs = travel.gather(-2, (claimed - 1).clamp(min=0).unsqueeze(-2)).squeeze(-2)
+    claim_leg = torch.where(flags & torch.isfinite(legs), legs, torch.zeros_like(legs))
+    tasks = tasks.clone()
+    tasks[..., feature(TASK_FEATURES, "claimed")] = flags.to(rows.dtype)
+    tasks[..., feature(TASK_FEATURES, "claim_leg")] = claim_leg
+    if precedence is not None:
+        done_at = claim_leg + tasks[..., feature(TASK_FEATURES, "service")]
+        waits = precedence & flags.unsqueeze(-2)                                     # [task, claimed predecessor]
+        latest = torch.where(waits, done_at.unsqueeze(-2), torch.full_like(waits, -1.0, dtype=rows.dtype)).amax(dim=-1)
+        margin = torch.where(latest >= 0.0, tasks[..., feature(TASK_FEATURES, "my_time")] - latest,
+                             tasks[..., feature(TASK_FEATURES, "margin")])
+        tasks[..., feature(TASK_FEATURES, "margin")] = margin.clamp(max=TIME_CAP)
+    own = own.clone()
+    own[..., feature(SELF_FEATURES, "claimed_step")] = claim_leg.amax(dim=-1) if claim_leg.shape[-1] else 0.0
+    lead = rows.shape[:-1]
+    return torch.cat([own, robots.reshape(*lead, -1), tasks.reshape(*lead, -1), travel.reshape(*lead, -1)], dim=-1)
+
+
 def without_claimed(action_mask: torch.Tensor, claimed: torch.Tensor) -> torch.Tensor:
     """Mask (..., n_tasks + 1) with the claimed tasks forbidden; None (last) is left as it was."""
     free = torch.cat([~claimed, torch.ones_like(claimed[..., :1])], dim=-1)
@@ -63,9 +98,23 @@ class ClaimRules:
                 for pred in preds:
                     self.precedence[task, int(pred)] = True
 
+    @classmethod
+    def per_row(cls, decision_order: str, predecessors_per_row: Sequence[Sequence[Sequence[int]]],
+                n_tasks: int) -> "ClaimRules":
+        """The rules for environments that each run their own scenario (training across
+        scenarios): row e follows predecessors_per_row[e], tasks padded to n_tasks slots."""
+        rules = cls(decision_order, [[] for _ in range(n_tasks)])
+        if rules.precedence is not None:
+            rules.precedence = torch.zeros(len(predecessors_per_row), n_tasks, n_tasks, dtype=torch.bool)
+            for row, predecessors in enumerate(predecessors_per_row):
+                for task, preds in enumerate(predecessors):
+                    for pred in preds:
+                        rules.precedence[row, task, int(pred)] = True
+        return rules
+
     def mask(self, env_mask: torch.Tensor, claimed: torch.Tensor) -> torch.Tensor:
         """env_mask (..., n_tasks + 1) under the `finished` mode (True = open), claimed
-        (..., n_tasks) -> the mask this robot chooses under. Applying it twice changes nothing."""
+        (..., n_tasks) bool -> the mask this robot chooses under. Applying it twice changes nothing."""
         mask = without_claimed(env_mask, claimed)
         if self.precedence is None:
             return mask
@@ -79,12 +128,15 @@ class ClaimRules:
         environment's mask narrowed by the tasks robots 0..i-1 claimed in this step.
 
         env_mask (..., N, n_tasks + 1) bool under the `finished` or `logic` mode; decide(i,
-        claimed (..., n_tasks) bool, mask (..., n_tasks + 1) bool) -> robot i's actions (...,)
-        long, for every leading index at once (environments). Returns the actions (..., N)."""
-        claimed = torch.zeros(*env_mask.shape[:-2], self.n_tasks, dtype=torch.bool)
+        claimed (..., n_tasks) long, mask (..., n_tasks + 1) bool) -> robot i's actions (...,)
+        long, for every leading index at once (environments). claimed[j] is 0 for a free task
+        and k + 1 for a task robot k claimed (the robots' own actors read `claimed > 0`; the set
+        actor also whose trip it is). Returns the actions (..., N)."""
+        claimed = torch.zeros(*env_mask.shape[:-2], self.n_tasks, dtype=torch.long)
         actions = []
         for robot in range(env_mask.shape[-2]):
-            action = decide(robot, claimed, self.mask(env_mask[..., robot, :], claimed))
+            action = decide(robot, claimed, self.mask(env_mask[..., robot, :], claimed > 0))
             actions.append(action)
-            claimed = claimed | claimed_flags(action.unsqueeze(-1), self.n_tasks)
+            taken = claimed_flags(action.unsqueeze(-1), self.n_tasks) & (claimed == 0)
+            claimed = torch.where(taken, torch.full_like(claimed, robot + 1), claimed)
         return torch.stack(actions, dim=-1)

@@ -20,6 +20,9 @@ from marl_mrta.model.reward import check_reward_overrides
 # How the robots of a step decide (claims.py). Here, so that reading settings needs no torch
 # (launch/train.launch derives the task managers' mask from a preset under roslaunch's Python).
 DECISION_ORDERS = ("simultaneous", "sequential", "sequential_logic")
+#: The actor's network: an MLP on the scenario-sized row (the paper's), or attention over the
+#: robots and tasks as sets (mappo/set_networks.py), which acts on scenarios of any size.
+ACTORS = ("mlp", "set")
 
 
 def preset_dir() -> Path:
@@ -55,9 +58,12 @@ class MappoConfig:
                                   "each seeing and unable to take the tasks claimed before it | sequential_logic: "
                                   "also only tasks whose predecessors are finished or claimed (mappo/claims.py)",
                                   choices=DECISION_ORDERS)
-    noise_profile: str = setting("nominal", "embedded executor noise profile, a name in config/task_embedded.yaml")
+    noise_profile: str = setting("ideal", "embedded executor noise profile, a name in config/noise_profiles.yaml")
     reward_overrides: Dict[str, Dict[str, float]] = setting(
         {}, "reward values replaced for training, as in a scenario's <reward>: {section: {key: value}} over config/reward.yaml")
+    match_time_costs: bool = setting(False, "set each scenario's nav.slope so that a second of driving costs what a "
+                                     "second of waiting does (w_time·slope/t_avg = w_idle·|idle.per_second|): the "
+                                     "team's return then falls with the makespan whatever the scenario's t_avg")
 
     # Returns and advantages
     gamma: float = setting(0.98, "discount factor γ", low=0.0, high=1.0)
@@ -80,17 +86,27 @@ class MappoConfig:
     adam_eps: float = setting(1e-5, "Adam ε", low=0.0, low_open=True)
     normalize_advantages: bool = setting(True, "standardise advantages per minibatch")
     value_norm: bool = setting(True, "learn the critic on running-normalised returns (ValueNorm)")
+    critic_warmup_updates: int = setting(0, "updates at the start of a run that train the critic alone (a run "
+                                         "starting from a trained actor, train --init, first learns its values)", low=0)
     target_kl: float = setting(0.0, "stop the epochs of an update early when approx_kl exceeds this (0 = never)", low=0.0)
 
     # Networks
     hidden_size: int = setting(64, "width of the actor's and critic's hidden layers and of the GRU", low=1)
     critic_layers: int = setting(2, "hidden layers of the critic MLP", low=1)
-    append_agent_id: bool = setting(True, "append a one-hot robot index to each robot's observation")
+    append_agent_id: bool = setting(True, "append a one-hot robot index to each robot's observation (mlp actor)")
+    actor: str = setting("mlp", "actor network: mlp on the scenario-sized observation (the paper's) | set: attention "
+                         "over robots and tasks, for scenarios of any size (mappo/set_networks.py)", choices=ACTORS)
+    set_heads: int = setting(4, "set actor and critic: attention heads (divides hidden_size)", low=1)
+    set_layers: int = setting(2, "set actor and critic: attention blocks", low=1)
+    init_actor: str = setting("", "the actor a fresh run starts from: a set actor's file (fine-tuning; train --init "
+                              "overrides); empty: new weights")
 
     # Bookkeeping
     checkpoint_every: int = setting(10, "updates between checkpoints (one is also written at exit)", low=1)
     eval_every: int = setting(5, "updates between greedy evaluations (0 = only at the end)", low=0)
     eval_episodes: int = setting(8, "episodes per greedy evaluation", low=1)
+    keep_best: bool = setting(False, "actor.pt holds the actor of the best greedy evaluation so far (shortest mean "
+                              "makespan of complete, logic-consistent episodes) instead of the last one")
     log_every: int = setting(1, "updates between progress lines", low=1)
 
     @property
@@ -136,6 +152,13 @@ def _check_consistency(source: str, config: MappoConfig) -> None:
     if config.decision_order == "sequential_logic" and config.action_mask != "finished":
         raise ConfigError(f"{source}: action_mask: decision_order sequential_logic reads which tasks are finished "
                           f"from the environment's mask, so it needs action_mask finished, not {config.action_mask}")
+    if config.actor == "set" and config.append_agent_id:
+        raise ConfigError(f"{source}: append_agent_id: the set actor tells robots apart by their tokens, not by an "
+                          "index; set it false")
+    if config.init_actor and config.actor != "set":
+        raise ConfigError(f"{source}: init_actor: a run starts from a set actor's weights only with actor: set")
+    if config.actor == "set" and config.hidden_size % config.set_heads:
+        raise ConfigError(f"{source}: set_heads: {config.set_heads} does not divide hidden_size = {config.hidden_size}")
     if config.rollout_length % config.chunk_length:
         raise ConfigError(f"{source}: chunk_length: {config.chunk_length} does not divide batch_size / n_envs = "
                           f"{config.rollout_length}")
@@ -161,7 +184,7 @@ def load_config(path: Union[str, Path], overrides: Optional[Dict[str, Any]] = No
 
 
 def resolve_preset(preset: str) -> Path:
-    """`tuned` / `paper` name a shipped preset; anything else is a path to a YAML file."""
+    """`tuned` / `paper` / `sequential` / `set` name a shipped preset; anything else is a path to a YAML file."""
     candidate = preset_dir() / f"{preset}.yaml"
     if "/" not in preset and not preset.endswith((".yaml", ".yml")) and candidate.exists():
         return candidate

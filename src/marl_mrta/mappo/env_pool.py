@@ -98,14 +98,17 @@ class EnvPool:
     """The N environments of a run; `run_seed` fixes every episode of every environment."""
 
     def __init__(self, envs: Sequence[TaskAllocationEnv], run_seed: int, *, parallel: bool = False,
-                 replayable: bool = True):
+                 replayable: bool = True, mixed: bool = False):
         """parallel: step (and reset) the environments in one thread each; replayable: the
-        environments are deterministic given reset seed and actions (module doc)."""
+        environments are deterministic given reset seed and actions (module doc); mixed: the
+        environments run different scenarios, each its `scenario` of the moment (training across
+        scenarios: mappo/set_view.py), so `predecessors` (the first one's) speaks for none of them."""
         self.envs = list(envs)
         first = self.envs[0]
         n_envs = len(self.envs)
         self.n_envs = n_envs
         self.replayable = replayable
+        self.mixed = mixed
         self._threads = ThreadPoolExecutor(max_workers=n_envs, thread_name_prefix="env") if parallel else None
         self.n_agents, self.n_actions = first.n_agents, first.n_actions
         self.obs_dim, self.state_dim = first.obs_dim, first.state_dim

@@ -31,6 +31,17 @@ def masked_logits(logits: torch.Tensor, action_mask: Optional[torch.Tensor]) -> 
     return logits.masked_fill(~action_mask, torch.finfo(logits.dtype).min)
 
 
+def gru_cell(width: int) -> nn.GRUCell:
+    """The actors' recurrent cell: orthogonal weights, zero biases."""
+    cell = nn.GRUCell(width, width)
+    for name, param in cell.named_parameters():
+        if "weight" in name:
+            nn.init.orthogonal_(param)
+        else:
+            nn.init.zeros_(param)
+    return cell
+
+
 @dataclass
 class ActorOutput:
     """Actor result for a batch of (sequence of) robot observations."""
@@ -52,12 +63,7 @@ class Actor(nn.Module):
             layer_init(nn.Linear(obs_dim, hidden_size)), nn.ReLU(),
             layer_init(nn.Linear(hidden_size, hidden_size)), nn.ReLU(),
         )
-        self.gru = nn.GRUCell(hidden_size, hidden_size)
-        for name, param in self.gru.named_parameters():
-            if "weight" in name:
-                nn.init.orthogonal_(param)
-            else:
-                nn.init.zeros_(param)
+        self.gru = gru_cell(hidden_size)
         self.gru_norm = nn.LayerNorm(hidden_size)
         # Small gain: near-uniform initial policy (CleanRL, "37 implementation details").
         self.head = layer_init(nn.Linear(hidden_size, n_actions), gain=0.01)

@@ -13,10 +13,16 @@ from typing import Any, Dict, Optional, Sequence, Tuple, Union
 import numpy as np
 import torch
 
-from marl_mrta.mappo.claims import ClaimRules, actor_input_size, is_sequential, with_claims
+from marl_mrta.mappo.claims import ClaimRules, actor_input_size, is_sequential, with_claims, with_set_claims
 from marl_mrta.mappo.networks import Actor, masked_logits, sample_actions
+from marl_mrta.mappo.set_networks import SetActor
+from marl_mrta.mappo.set_view import SetView
+from marl_mrta.model.scenario import Scenario
 
+#: The MLP actor of one scenario's sizes.
 ACTOR_FORMAT = "marl_mrta.mappo.actor/1"
+#: The set actor (mappo/set_networks.py): any scenario; the file names no sizes.
+SET_ACTOR_FORMAT = "marl_mrta.mappo.actor/2"
 
 
 class PolicyFileError(ValueError):
@@ -53,6 +59,19 @@ def save_actor(path: Union[str, Path], actor: Actor, *, obs_dim: int, n_agents: 
     }, path)
 
 
+def save_set_actor(path: Union[str, Path], actor: SetActor, *, settings: Dict[str, Any], trained_on: str) -> None:
+    """Write a set actor's file (atomically): weights, network shape, settings, what it was trained on."""
+    atomic_torch_save({
+        "format": SET_ACTOR_FORMAT,
+        "weights": actor.state_dict(),
+        "hidden_size": actor.hidden_size,
+        "heads": actor.heads,
+        "layers": actor.layers,
+        "settings": settings,
+        "trained_on": trained_on,
+    }, path)
+
+
 class ActorPolicy:
     """Acts for any subset of robots from their own observations; carries no global state."""
 
@@ -72,7 +91,7 @@ class ActorPolicy:
         self.claim_rules = ClaimRules(self.decision_order, self.predecessors)
         self.obs_dim = obs_dim
         self.n_agents = n_agents
-        self.n_actions = actor.n_actions
+        self.n_actions = len(self.predecessors) + 1
         self.append_agent_id = append_agent_id
         self.source = source
         self.generator = torch.Generator().manual_seed(seed)
@@ -80,6 +99,10 @@ class ActorPolicy:
     def initial_hidden(self, n_agents: int) -> torch.Tensor:
         """Recurrent state for the first decision of an episode, one row per robot."""
         return self.actor.initial_hidden(n_agents)
+
+    def for_scenario(self, scenario: Scenario) -> "ActorPolicy":
+        """This policy acting on `scenario` (an MLP actor knows only the scenario it was trained on)."""
+        return self
 
     @torch.no_grad()
     def act_team(self, obs: np.ndarray, action_mask: Optional[np.ndarray], hidden: torch.Tensor,
@@ -110,18 +133,47 @@ class ActorPolicy:
         claimed (k, n_tasks) bool: the tasks claimed before each robot in this step (a
         sequential actor only; default none). Returns actions (k,) int64 (greedy when
         deterministic) and the new hidden state."""
+        logits, mask_t, new_hidden = self.logits(obs, action_mask, hidden, agent_ids, claimed)
+        if deterministic:
+            actions = masked_logits(logits, mask_t).argmax(-1)
+        else:
+            actions = sample_actions(logits, self.generator)
+        return actions.numpy().astype(np.int64), new_hidden
+
+    @torch.no_grad()
+    def logits(self, obs: np.ndarray, action_mask: Optional[np.ndarray], hidden: torch.Tensor,
+               agent_ids: Optional[Sequence[int]] = None, claimed: Optional[np.ndarray] = None
+               ) -> Tuple[torch.Tensor, Optional[torch.Tensor], torch.Tensor]:
+        """The action distribution of one decision (arguments as act): masked logits (k, n_actions),
+        the mask the robots choose under and the new hidden state."""
         obs_t = torch.as_tensor(np.asarray(obs, dtype=np.float32))
         if obs_t.ndim != 2 or obs_t.shape[1] != self.obs_dim:
             raise ValueError(f"{self.source}: observation shape {tuple(obs_t.shape)}, the actor expects (k, {self.obs_dim})")
         ids = list(range(obs_t.shape[0])) if agent_ids is None else list(agent_ids)
         mask_t = None if action_mask is None else torch.as_tensor(np.asarray(action_mask, dtype=bool))
+        obs_t, mask_t = self._inputs(obs_t, mask_t, ids, claimed)
+        k = obs_t.shape[0]
+        out = self.actor(obs_t.unsqueeze(0), hidden, torch.zeros(1, k, dtype=torch.bool),
+                         None if mask_t is None else mask_t.unsqueeze(0))
+        return out.logits[0], mask_t, out.hidden
+
+    def _claimed(self, claimed: Optional[np.ndarray], k: int, marks: bool = False) -> torch.Tensor:
+        """The claimed tasks (k, n_tasks) of a sequential actor, checked (default: none): flags,
+        or with `marks` the claimers (ClaimRules.decide_in_turn: k + 1 = robot k's, 0 = free)."""
+        n_tasks = self.n_actions - 1
+        kind = torch.long if marks else torch.bool
+        claimed_t = torch.zeros(k, n_tasks, dtype=kind) if claimed is None \
+            else torch.as_tensor(np.asarray(claimed, dtype=np.int64 if marks else bool))
+        if claimed_t.shape != (k, n_tasks):
+            raise ValueError(f"{self.source}: claimed shape {tuple(claimed_t.shape)}, the actor expects "
+                             f"({k}, {n_tasks})")
+        return claimed_t
+
+    def _inputs(self, obs_t: torch.Tensor, mask_t: Optional[torch.Tensor], ids: Sequence[int],
+                claimed: Optional[np.ndarray]) -> Tuple[torch.Tensor, Optional[torch.Tensor]]:
+        """The actor's inputs and the mask it chooses under, from observation rows of robots `ids`."""
         if self.sequential:
-            n_tasks = self.n_actions - 1
-            claimed_t = torch.zeros(obs_t.shape[0], n_tasks, dtype=torch.bool) if claimed is None \
-                else torch.as_tensor(np.asarray(claimed, dtype=bool))
-            if claimed_t.shape != (obs_t.shape[0], n_tasks):
-                raise ValueError(f"{self.source}: claimed shape {tuple(claimed_t.shape)}, the actor expects "
-                                 f"({obs_t.shape[0]}, {n_tasks})")
+            claimed_t = self._claimed(claimed, obs_t.shape[0])
             obs_t = with_claims(obs_t, claimed_t)
             if mask_t is None:
                 mask_t = torch.ones(obs_t.shape[0], self.n_actions, dtype=torch.bool)
@@ -130,20 +182,47 @@ class ActorPolicy:
             if any(i < 0 or i >= self.n_agents for i in ids):
                 raise ValueError(f"{self.source}: robot index out of range 0..{self.n_agents - 1}: {ids}")
             obs_t = torch.cat([obs_t, torch.eye(self.n_agents)[ids]], dim=-1)
-        k = obs_t.shape[0]
-        out = self.actor(obs_t.unsqueeze(0), hidden, torch.zeros(1, k, dtype=torch.bool),
-                         None if mask_t is None else mask_t.unsqueeze(0))
-        logits = out.logits[0]
-        if deterministic:
-            actions = masked_logits(logits, mask_t).argmax(-1)
-        else:
-            actions = sample_actions(logits, self.generator)
-        return actions.numpy().astype(np.int64), out.hidden
+        return obs_t, mask_t
 
 
-def load_policy(path: Union[str, Path], seed: int = 0) -> ActorPolicy:
-    """The actor in an actor file (or in a full training checkpoint) ready to act."""
-    path = Path(path)
+class SetActorPolicy(ActorPolicy):
+    """A set actor (mappo/set_networks.py) acting on one scenario: the robots' observation rows
+    are read as sets (mappo/set_view.py) with the scenario's travel-time table. The same file
+    acts on any scenario (for_scenario); unbound, it only carries the weights."""
+
+    def __init__(self, actor: SetActor, *, settings: Dict[str, Any], seed: int = 0, source: str = "",
+                 view: Optional[SetView] = None):
+        self.view = view
+        self.seed = seed
+        scenario = view.scenario if view is not None else None
+        predecessors = scenario.predecessors if scenario is not None else []
+        super().__init__(actor, obs_dim=view.flat.obs_dim if view is not None else 0,
+                         n_agents=scenario.n_robots if scenario is not None else 0, append_agent_id=False,
+                         settings=settings, seed=seed, source=source, predecessors=predecessors)
+
+    def for_scenario(self, scenario: Scenario) -> "SetActorPolicy":
+        return SetActorPolicy(self.actor, settings=self.settings, seed=self.seed, source=self.source,
+                              view=SetView(scenario))
+
+    def _inputs(self, obs_t: torch.Tensor, mask_t: Optional[torch.Tensor], ids: Sequence[int],
+                claimed: Optional[np.ndarray]) -> Tuple[torch.Tensor, Optional[torch.Tensor]]:
+        if self.view is None:
+            raise ValueError(f"{self.source}: a set actor acts on a scenario: bind it first (for_scenario)")
+        if any(i < 0 or i >= self.n_agents for i in ids):
+            raise ValueError(f"{self.source}: robot index out of range 0..{self.n_agents - 1}: {list(ids)}")
+        rows = torch.as_tensor(self.view.rows(obs_t.numpy(), ids, self.sequential))
+        if mask_t is None:
+            mask_t = torch.ones(rows.shape[0], self.n_actions, dtype=torch.bool)
+        if self.sequential:
+            claimed_t = self._claimed(claimed, rows.shape[0], marks=True)
+            rows = with_set_claims(rows, claimed_t, self.claim_rules.precedence)
+            mask_t = self.claim_rules.mask(mask_t, claimed_t > 0)
+        return rows, mask_t
+
+
+def read_actor_file(policy: Union[str, Path]) -> Tuple[Path, Dict[str, Any]]:
+    """An actor file's path and its contents (either format)."""
+    path = Path(policy)
     try:
         data = torch.load(path, map_location="cpu", weights_only=True)
     except FileNotFoundError:
@@ -152,8 +231,28 @@ def load_policy(path: Union[str, Path], seed: int = 0) -> ActorPolicy:
         raise PolicyFileError(f"{path}: not a readable actor file ({type(error).__name__})") from None
     if isinstance(data, dict) and "actor_file" in data:   # a training checkpoint embeds one
         data = data["actor_file"]
-    if not isinstance(data, dict) or data.get("format") != ACTOR_FORMAT:
-        raise PolicyFileError(f"{path}: format: not a {ACTOR_FORMAT} actor file")
+    if not isinstance(data, dict) or data.get("format") not in (ACTOR_FORMAT, SET_ACTOR_FORMAT):
+        raise PolicyFileError(f"{path}: format: not a {ACTOR_FORMAT} or {SET_ACTOR_FORMAT} actor file")
+    return path, data
+
+
+def set_actor_from_file(path: Path, data: Dict[str, Any]) -> SetActor:
+    """The set actor of a SET_ACTOR_FORMAT file's contents."""
+    actor = SetActor(data["hidden_size"], data["heads"], data["layers"])
+    try:
+        actor.load_state_dict(data["weights"])
+    except RuntimeError:
+        raise PolicyFileError(f"{path}: weights: do not match the stored network shape") from None
+    return actor
+
+
+def load_policy(path: Union[str, Path], seed: int = 0, scenario: Optional[Scenario] = None) -> ActorPolicy:
+    """The actor in an actor file (or in a full training checkpoint) ready to act; a set actor
+    acts on `scenario` (unbound without one: for_scenario)."""
+    path, data = read_actor_file(path)
+    if data["format"] == SET_ACTOR_FORMAT:
+        policy = SetActorPolicy(set_actor_from_file(path, data), settings=data["settings"], seed=seed, source=str(path))
+        return policy.for_scenario(scenario) if scenario is not None else policy
     decision_order = dict(data.get("settings", {})).get("decision_order", "simultaneous")
     actor = Actor(actor_input_size(data["obs_dim"], data["n_actions"], data["n_agents"], data["append_agent_id"],
                                    decision_order), data["n_actions"], data["hidden_size"])

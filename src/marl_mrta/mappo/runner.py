@@ -17,6 +17,7 @@ evaluation runs in the pool's own environments, after which fresh training episo
 """
 from __future__ import annotations
 
+import copy
 import json
 import math
 import random
@@ -33,11 +34,12 @@ import torch
 
 from marl_mrta.env.api import TaskAllocationEnv
 from marl_mrta.mappo.buffer import RolloutBuffer
-from marl_mrta.mappo.claims import ClaimRules, with_claims
+from marl_mrta.mappo.claims import ClaimRules, with_claims, with_set_claims
 from marl_mrta.mappo.config import MappoConfig, config_from_dict, config_to_dict
 from marl_mrta.mappo.env_pool import EnvPool, EpisodeSummary, PoolStep, episode_seed
 from marl_mrta.mappo.networks import log_prob_and_entropy, sample_actions
-from marl_mrta.mappo.policy import ActorPolicy, atomic_torch_save, save_actor
+from marl_mrta.mappo.policy import (ActorPolicy, PolicyFileError, SetActorPolicy, atomic_torch_save, read_actor_file,
+                                   save_actor, save_set_actor, set_actor_from_file)
 from marl_mrta.mappo.trainer import MappoTrainer
 
 CHECKPOINT_FORMAT = "marl_mrta.mappo.checkpoint/1"
@@ -115,12 +117,14 @@ class Runner:
                  evaluate: GreedyEvaluation, scenario: str, seed: int, out_dir: Path,
                  log: Callable[[str], None] = print, target_makespan: Optional[float] = None,
                  stop_at_target: bool = False, tensorboard: bool = True, plots: bool = True,
-                 pool: Optional[EnvPool] = None):
+                 pool: Optional[EnvPool] = None, init_actor: Optional[str] = None):
         """evaluate: runs the greedy policy's episodes (evaluation/training.py: on an environment
         of make_env, or in the pool); target_makespan: greedy makespan counted as "policy found"
         (time_to_target); stop_at_target ends the run there (benchmarks); pool: the environments
         (default config.n_envs from make_env); make_env None: the evaluation ran in the pool,
-        whose training episodes then restart (module doc)."""
+        whose training episodes then restart (module doc); init_actor: a set actor's file whose
+        weights the run starts from (fine-tuning), "" for new weights;
+        default: the settings' init_actor."""
         self.config = config
         self.make_env = make_env
         self.run_greedy = evaluate
@@ -142,6 +146,9 @@ class Runner:
         self.n_agents = self.pool.n_agents
         self.claim_rules = ClaimRules(config.decision_order, self.pool.predecessors)
         self.trainer = MappoTrainer(config, self.pool.obs_dim, self.pool.state_dim, self.n_agents, self.pool.n_actions)
+        start = config.init_actor if init_actor is None else init_actor
+        if start:
+            self._start_from(start)
         self.buffer = RolloutBuffer(config.rollout_length, config.n_envs, self.n_agents, self.trainer.actor_obs_dim,
                                     self.pool.state_dim, self.pool.n_actions, config.hidden_size)
         self.action_generator = torch.Generator().manual_seed(seed)
@@ -155,11 +162,38 @@ class Runner:
         self.time_to_target: Optional[float] = None
         self.steps_to_target: Optional[int] = None
         self.history: Dict[str, List[Dict[str, Any]]] = {"episodes": [], "updates": [], "evaluations": []}
+        #: keep_best: the best greedy evaluation's consistent makespan and the actor weights that made it.
+        self.best_makespan = math.inf
+        self.best_actor: Optional[Dict[str, torch.Tensor]] = None
         self.current: Optional[PoolStep] = None
         self.hidden = torch.zeros(config.n_envs, self.n_agents, config.hidden_size)
         self.episode_start = torch.ones(config.n_envs, dtype=torch.bool)
         self.stop_requested = False
         self._writer = None
+
+    def _start_from(self, policy: str) -> None:
+        """The actor's weights from a set actor's file, checked against the settings' network."""
+        try:
+            path, data = read_actor_file(policy)
+            if "hidden_size" not in data or "heads" not in data or self.config.actor != "set":
+                raise PolicyFileError(f"{path}: --init: a set actor's file fine-tunes a run with actor: set "
+                                      f"(this run trains actor: {self.config.actor})")
+            c = self.config
+            shape = (data["hidden_size"], data["heads"], data["layers"])
+            if shape != (c.hidden_size, c.set_heads, c.set_layers):
+                raise PolicyFileError(f"{path}: --init: the actor has hidden_size, set_heads, set_layers {shape}, the "
+                                      f"settings {(c.hidden_size, c.set_heads, c.set_layers)}")
+            self.trainer.actor.load_state_dict(set_actor_from_file(path, data).state_dict())
+        except PolicyFileError as error:
+            raise RunError(str(error)) from None
+
+    def _claim_rules(self, rows: Sequence[int]) -> ClaimRules:
+        """The claim rules of environments `rows`: the pool's scenario's, or, when the environments
+        run different scenarios (training across scenarios), each row's own."""
+        if not self.pool.mixed:
+            return self.claim_rules
+        return ClaimRules.per_row(self.config.decision_order, [self.pool.envs[i].scenario.predecessors for i in rows],
+                                  self.pool.n_actions - 1)
 
     # ---------------------------------------------------------------- paths
     @property
@@ -194,7 +228,9 @@ class Runner:
         """The run stored in out_dir/checkpoint.pt, ready to continue with its next update."""
         data = cls.read_checkpoint(Path(out_dir) / "checkpoint.pt")
         config = config_from_dict(data["config"], f"{out_dir}/checkpoint.pt")
-        runner = cls(config, make_env, scenario=data["scenario"], seed=data["seed"], out_dir=Path(out_dir), **kwargs)
+        # The checkpoint holds the trained weights: nothing to start from.
+        runner = cls(config, make_env, scenario=data["scenario"], seed=data["seed"], out_dir=Path(out_dir),
+                     init_actor="", **kwargs)
         runner.load(data)
         return runner
 
@@ -205,6 +241,9 @@ class Runner:
         self.episodes, self.wall_time = counters["episodes"], counters["wall_time"]
         self.time_to_target, self.steps_to_target = counters["time_to_target"], counters["steps_to_target"]
         self.history = data["history"]
+        best = data.get("best")
+        if best is not None:
+            self.best_makespan, self.best_actor = best["makespan"], best["actor"]
         self.current = self.pool.restore(data["env_pool"])
         if self.pool.replayable:
             self.hidden = data["hidden"].clone()
@@ -232,8 +271,17 @@ class Runner:
             "episode_start": self.episode_start.clone(),
             "history": self.history,
         }
+        if self.config.keep_best:
+            data["best"] = {"makespan": self.best_makespan, "actor": self.best_actor}
         atomic_torch_save(data, self.checkpoint_path)
-        save_actor(self.actor_path, self.trainer.actor, obs_dim=self.pool.obs_dim, n_agents=self.n_agents,
+        actor = self.trainer.actor
+        if self.config.keep_best and self.best_actor is not None:
+            actor = copy.deepcopy(actor)
+            actor.load_state_dict(self.best_actor)
+        if self.config.actor == "set":
+            save_set_actor(self.actor_path, actor, settings=config_to_dict(self.config), trained_on=self.scenario)
+            return
+        save_actor(self.actor_path, actor, obs_dim=self.pool.obs_dim, n_agents=self.n_agents,
                    append_agent_id=self.config.append_agent_id, settings=config_to_dict(self.config),
                    scenario=self.scenario, predecessors=self.pool.predecessors)
 
@@ -281,7 +329,7 @@ class Runner:
                 if self.stop_requested or failed.is_set():
                     return False
                 with lock:
-                    choice = self._choose(step, hidden, episode_start)
+                    choice = self._choose(step, hidden, episode_start, rows=[i])
                 try:
                     result = self.pool.step_one(i, choice.actions[0].numpy())
                 except BaseException:
@@ -327,11 +375,13 @@ class Runner:
                     episode_start=episode_start, terminated=torch.from_numpy(result.terminated),
                     truncated=torch.from_numpy(result.truncated), final_values=final_values, actor_hidden=hidden)
 
-    def _choose(self, step: PoolStep, hidden: torch.Tensor, episode_start: torch.Tensor) -> _Choice:
+    def _choose(self, step: PoolStep, hidden: torch.Tensor, episode_start: torch.Tensor,
+                rows: Optional[Sequence[int]] = None) -> _Choice:
         """Sample every robot's action in the environments (rows E) of `step`, from the GRU
         states `hidden` (E, N, H): the actor inputs and masks the actions were sampled under
         (what the buffer keeps), actions (E, N), their log-probabilities, the next GRU state, and
-        the critic's values of the state."""
+        the critic's values of the state. rows: the pool's environments of `step` (default all)."""
+        rows = range(self.config.n_envs) if rows is None else rows
         state = torch.from_numpy(step.state).float()
         env_obs, env_mask = torch.from_numpy(step.obs).float(), torch.from_numpy(step.action_mask)
         E, N = env_obs.shape[:2]
@@ -352,8 +402,13 @@ class Runner:
         log_probs = torch.zeros(E, N)
         next_hidden = torch.zeros_like(hidden)
 
+        rules = self._claim_rules(rows)
+
         def decide(robot: int, claimed: torch.Tensor, mask_i: torch.Tensor) -> torch.Tensor:
-            obs_i = with_claims(env_obs[:, robot], claimed)
+            if self.config.actor == "set":
+                obs_i = with_set_claims(env_obs[:, robot], claimed, rules.precedence)
+            else:
+                obs_i = with_claims(env_obs[:, robot], claimed > 0)
             if self.config.append_agent_id:
                 obs_i = torch.cat([obs_i, identity[robot].expand(E, N)], dim=-1)
             out = trainer.actor(obs_i.unsqueeze(0), hidden[:, robot], episode_start.unsqueeze(0), mask_i.unsqueeze(0))
@@ -364,7 +419,7 @@ class Runner:
             log_probs[:, robot], next_hidden[:, robot] = log_prob_i, out.hidden
             return action_i
 
-        actions = self.claim_rules.decide_in_turn(env_mask, decide)
+        actions = rules.decide_in_turn(env_mask, decide)
         return _Choice(obs, mask, actions, log_probs, next_hidden, state, trainer.values(state))
 
     @torch.no_grad()
@@ -383,7 +438,8 @@ class Runner:
             raise
         collected = time.perf_counter()
         self.compute()
-        metrics = self.trainer.train(self.buffer, self.env_steps, self.shuffle_generator)
+        metrics = self.trainer.train(self.buffer, self.env_steps, self.shuffle_generator,
+                                     train_actor=self.update >= self.config.critic_warmup_updates)
         done = time.perf_counter()
         self.update += 1
         self.episodes += len(finished)
@@ -395,6 +451,8 @@ class Runner:
         return metrics
 
     def greedy_policy(self) -> ActorPolicy:
+        if self.config.actor == "set":   # bound to each evaluation's scenario there (for_scenario)
+            return SetActorPolicy(self.trainer.actor, settings=config_to_dict(self.config))
         return ActorPolicy(self.trainer.actor, obs_dim=self.pool.obs_dim, n_agents=self.n_agents,
                            append_agent_id=self.config.append_agent_id, settings=config_to_dict(self.config),
                            predecessors=self.pool.predecessors)
@@ -410,14 +468,18 @@ class Runner:
         self.trainer.actor.train()
         self.wall_time += time.perf_counter() - started
         makespans = [r.makespan if r.terminated else math.inf for r in records]
+        consistent = float(np.mean([r.makespan if r.terminated and r.logic_consistent else math.inf for r in records]))
         result = {
             "update": self.update, "env_steps": self.env_steps, "wall_time": self.wall_time,
-            "makespan": float(np.mean(makespans)),
+            "makespan": float(np.mean(makespans)), "consistent_makespan": consistent,
             "completed": float(np.mean([r.terminated for r in records])),
             "reward_per_robot": float(np.mean([np.mean(r.reward_per_robot) for r in records])),
             "collisions": float(np.mean([r.collisions for r in records])),
         }
         self.history["evaluations"].append(result)
+        if self.config.keep_best and consistent < self.best_makespan:
+            self.best_makespan = consistent
+            self.best_actor = {k: v.detach().clone() for k, v in self.trainer.actor.state_dict().items()}
         if (self.target_makespan is not None and self.time_to_target is None
                 and result["makespan"] <= self.target_makespan):
             self.time_to_target, self.steps_to_target = self.wall_time, self.env_steps

@@ -17,6 +17,7 @@ from marl_mrta.mappo.buffer import Minibatch, RolloutBuffer
 from marl_mrta.mappo.claims import actor_input_size, is_sequential
 from marl_mrta.mappo.config import MappoConfig
 from marl_mrta.mappo.networks import Actor, Critic, actor_input, log_prob_and_entropy
+from marl_mrta.mappo.set_networks import SetActor, SetCritic
 from marl_mrta.mappo.value_norm import ValueNorm
 
 
@@ -65,16 +66,24 @@ class MappoTrainer:
         self.config = config
         self.n_agents = n_agents
         self.sequential = is_sequential(config.decision_order)
-        self.actor_obs_dim = actor_input_size(obs_dim, n_actions, n_agents, config.append_agent_id,
-                                              config.decision_order)
-        self.actor = Actor(self.actor_obs_dim, n_actions, config.hidden_size)
-        self.critic = Critic(state_dim, n_agents, config.hidden_size, config.critic_layers)
+        if config.actor == "set":
+            # Set rows already carry the claimed flags' places and tell robots apart by their tokens.
+            self.actor_obs_dim = obs_dim
+            self.actor = SetActor(config.hidden_size, config.set_heads, config.set_layers)
+            self.critic = SetCritic(config.hidden_size, config.set_heads, config.set_layers, n_actions - 1)
+        else:
+            self.actor_obs_dim = actor_input_size(obs_dim, n_actions, n_agents, config.append_agent_id,
+                                                  config.decision_order)
+            self.actor = Actor(self.actor_obs_dim, n_actions, config.hidden_size)
+            self.critic = Critic(state_dim, n_agents, config.hidden_size, config.critic_layers)
         self.value_norm = ValueNorm(enabled=config.value_norm)
         self.actor_optimizer = torch.optim.Adam(self.actor.parameters(), lr=config.learning_rate, eps=config.adam_eps)
         self.critic_optimizer = torch.optim.Adam(self.critic.parameters(), lr=config.learning_rate, eps=config.adam_eps)
 
     def actor_obs(self, obs: torch.Tensor) -> torch.Tensor:
-        """Environment observations (..., N, obs_dim) -> actor inputs."""
+        """Environment observations (..., N, obs_dim) -> actor inputs (set rows are their own)."""
+        if self.config.actor == "set":
+            return obs
         return actor_input(obs, self.config.append_agent_id)
 
     @torch.no_grad()
@@ -87,9 +96,11 @@ class MappoTrainer:
         c = self.config
         return c.learning_rate * c.lr_decay ** (env_steps // c.lr_decay_steps)
 
-    def train(self, buffer: RolloutBuffer, env_steps: int, generator: torch.Generator) -> Dict[str, float]:
-        """Epochs of minibatch updates on a buffer whose returns are computed.
-        Returns the means over minibatches of every loss and diagnostic."""
+    def train(self, buffer: RolloutBuffer, env_steps: int, generator: torch.Generator,
+              train_actor: bool = True) -> Dict[str, float]:
+        """Epochs of minibatch updates on a buffer whose returns are computed; train_actor False:
+        the critic alone (critic_warmup_updates). Returns the means over minibatches of every
+        loss and diagnostic."""
         c = self.config
         lr = self.learning_rate(env_steps)
         for optimizer in (self.actor_optimizer, self.critic_optimizer):
@@ -102,7 +113,7 @@ class MappoTrainer:
         for _ in range(c.epochs):
             epoch_kl = []
             for batch in buffer.minibatches(c.chunk_length, c.n_minibatches, generator):
-                metrics = self._minibatch_step(batch)
+                metrics = self._minibatch_step(batch, train_actor)
                 epoch_kl.append(metrics["approx_kl"])
                 for key, value in metrics.items():
                     sums[key] = sums.get(key, 0.0) + value
@@ -115,7 +126,7 @@ class MappoTrainer:
         metrics["epochs_run"] = float(n_minibatches // c.n_minibatches)
         return metrics
 
-    def _minibatch_step(self, batch: Minibatch) -> Dict[str, float]:
+    def _minibatch_step(self, batch: Minibatch, train_actor: bool = True) -> Dict[str, float]:
         c = self.config
         L, B, N = batch.actions.shape
         actor_out = self.actor(
@@ -139,10 +150,12 @@ class MappoTrainer:
         loss = policy.policy_loss - c.entropy_coef * entropy_mean + c.value_coef * value_loss
         self.actor_optimizer.zero_grad(set_to_none=True)
         self.critic_optimizer.zero_grad(set_to_none=True)
-        loss.backward()
-        actor_grad_norm = nn.utils.clip_grad_norm_(self.actor.parameters(), c.max_grad_norm)
+        (loss if train_actor else c.value_coef * value_loss).backward()
+        actor_grad_norm = nn.utils.clip_grad_norm_(self.actor.parameters(), c.max_grad_norm) if train_actor \
+            else torch.zeros(())
         critic_grad_norm = nn.utils.clip_grad_norm_(self.critic.parameters(), c.max_grad_norm)
-        self.actor_optimizer.step()
+        if train_actor:
+            self.actor_optimizer.step()
         self.critic_optimizer.step()
         return {
             "loss": float(loss.detach()),

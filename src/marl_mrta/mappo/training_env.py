@@ -11,13 +11,16 @@ from __future__ import annotations
 
 import dataclasses
 from functools import partial
-from typing import Callable, Mapping, Optional, Sequence, Union
+from typing import Callable, Dict, Mapping, Optional, Sequence, Union
 
 import numpy as np
 
 from marl_mrta.env.api import StepOutput, TaskAllocationEnv
 from marl_mrta.env.factory import make_env
+from marl_mrta.mappo.claims import is_sequential
 from marl_mrta.mappo.config import MappoConfig
+from marl_mrta.mappo.env_pool import EnvPool
+from marl_mrta.mappo.set_view import SetViewEnv
 from marl_mrta.model.reward import RewardConfig, merge_reward_overrides, step_rewards
 from marl_mrta.model.scenario import Scenario, load_scenario
 
@@ -33,14 +36,41 @@ def training_reward(scenario: Scenario, overrides: Mapping[str, Mapping[str, flo
     return RewardConfig.load(trained.nav_thresholds, None, trained.reward_overrides)
 
 
+def run_overrides(scenario: Scenario, config: MappoConfig) -> Dict[str, Dict[str, float]]:
+    """The reward overrides a run trains `scenario` with: the settings' reward_overrides and, with
+    match_time_costs, the nav.slope at which a second of driving costs w_idle·|idle.per_second|,
+    what a second of waiting costs (w_time·slope/t_avg per second of driving), from the weights
+    in force for this scenario."""
+    overrides = {section: dict(values) for section, values in config.reward_overrides.items()}
+    if not config.match_time_costs:
+        return overrides
+    reward = training_reward(scenario, overrides)
+    slope = reward.w_idle * abs(reward.idle_per_second) * reward.thresholds.t_avg / reward.w_time
+    return merge_reward_overrides(overrides, {"nav": {"slope": slope}})
+
+
 def embedded_factory(scenario: Union[str, Scenario], config: MappoConfig) -> Callable[[], TaskAllocationEnv]:
     """A function building one embedded environment of the run (the scenario is parsed once);
     bad settings fail here, before any training."""
     loaded = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
-    build = partial(make_env, with_training_reward(loaded, config.reward_overrides), "embedded",
+    build = partial(make_env, with_training_reward(loaded, run_overrides(loaded, config)), "embedded",
                     profile=config.noise_profile, mask=config.action_mask)
     build()
     return build
+
+
+def set_view_pool(config: MappoConfig, scenarios: Sequence[Union[str, Scenario]], seed: int) -> EnvPool:
+    """The run's pool for the set actor (mappo/set_view.py): config.n_envs embedded environments,
+    each running the scenarios in turn (one per episode, chosen by the episode's seed), padded to
+    the largest scenario's robots and tasks. Every scenario is loaded and checked here."""
+    loaded = [s if isinstance(s, Scenario) else load_scenario(s) for s in scenarios]
+    builds = [embedded_factory(s, config) for s in loaded]
+    robot_slots = max(s.n_robots for s in loaded)
+    task_slots = max(s.n_tasks for s in loaded)
+    sequential = is_sequential(config.decision_order)
+    envs = [SetViewEnv(lambda i: builds[i](), len(loaded), robot_slots, task_slots, sequential)
+            for _ in range(config.n_envs)]
+    return EnvPool(envs, seed, mixed=len(loaded) > 1)
 
 
 class TrainingRewardEnv:

@@ -1,0 +1,155 @@
+"""Imitation of planned episodes: the set actor learns a planner's joint actions, as a start for MAPPO.
+
+A planner (the GA, the exact solver) gives each scenario a schedule as joint actions. Replayed
+through the environment in the decision order of training (ClaimRules.decide_in_turn, each
+robot told the tasks the plan gave the robots before it), every step yields, per robot, the set
+row it would have seen and the action the plan gave it: a supervised example. An action the
+robot's mask forbids (the plan sends a robot to B1 before the robot that does A1 has chosen) is
+kept out of the loss. Cross-entropy on these examples teaches an actor in minutes what MAPPO
+finds only after many episodes; MAPPO then trains on from there (apps/train_generalist.py).
+
+Examples of scenarios of different sizes are batched by padding their rows to the largest
+slots of the batch (SetLayout.pad); each robot of a demonstration is one sequence for the GRU.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable, Dict, List, Optional, Sequence
+
+import numpy as np
+import torch
+
+from marl_mrta.env.api import TaskAllocationEnv
+from marl_mrta.env.observation import SetLayout
+from marl_mrta.mappo.claims import ClaimRules, is_sequential, with_set_claims
+from marl_mrta.mappo.set_networks import SetActor
+from marl_mrta.mappo.set_view import SetView, slot_mask
+
+
+@dataclass
+class Demonstration:
+    """A planned episode of one scenario as its robots saw it."""
+
+    rows: np.ndarray       # (T, N, width) float32: set rows, with the claims before each robot
+    masks: np.ndarray      # (T, N, M + 1) bool: the masks each robot chose under
+    actions: np.ndarray    # (T, N) int64: the plan's action (M = None)
+    allowed: np.ndarray    # (T, N) bool: the plan's action is open to the robot (examples of the loss)
+    layout: SetLayout
+    makespan: float        # s, of the replayed episode
+
+
+def demonstrate(env: TaskAllocationEnv, view: SetView, joint_actions: Sequence[Sequence[Optional[int]]],
+                decision_order: str, seed: int = 0) -> Demonstration:
+    """Replay a plan's joint actions (task index or None per robot and step) in `env` (episode
+    reset with `seed`), recording what each robot saw and was told to do."""
+    n, none = env.n_agents, env.n_actions - 1
+    rules = ClaimRules(decision_order, env.scenario.predecessors)
+    sequential = is_sequential(decision_order)
+    out = env.reset(seed=seed)
+    rows_t: List[np.ndarray] = []
+    masks_t: List[np.ndarray] = []
+    actions_t: List[List[int]] = []
+    for joint in joint_actions:
+        planned = [none if a is None else int(a) for a in joint]
+        rows = torch.as_tensor(view.rows(out.obs, range(n), sequential))
+        seen = rows.clone()
+        masks = torch.zeros(n, none + 1, dtype=torch.bool)
+
+        def decide(robot: int, claimed: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+            if sequential:
+                seen[robot] = with_set_claims(rows[robot:robot + 1], claimed.unsqueeze(0), rules.precedence)[0]
+            masks[robot] = mask
+            return torch.tensor(planned[robot])
+
+        rules.decide_in_turn(torch.as_tensor(np.asarray(out.action_mask, dtype=bool)), decide)
+        rows_t.append(seen.numpy())
+        masks_t.append(masks.numpy())
+        actions_t.append(planned)
+        out = env.step(planned)
+        if out.done or out.truncated:
+            break
+    actions = np.array(actions_t, dtype=np.int64)
+    masks = np.stack(masks_t)
+    allowed = np.take_along_axis(masks, actions[..., None], axis=-1)[..., 0]
+    makespan = out.info.episode.makespan if out.info.episode is not None else float("nan")
+    return Demonstration(np.stack(rows_t), masks, actions, allowed, view.layout, float(makespan))
+
+
+@dataclass
+class ImitationBatch:
+    obs: torch.Tensor            # (T, B, width)
+    masks: torch.Tensor          # (T, B, A)
+    actions: torch.Tensor        # (T, B)
+    weight: torch.Tensor         # (T, B) 1 where the example counts
+    episode_start: torch.Tensor  # (T, B) bool
+
+
+def batch_of(demos: Sequence[Demonstration]) -> ImitationBatch:
+    """The demonstrations' robots as sequences (columns), padded to their largest slots and length."""
+    to = SetLayout(max(d.layout.robot_slots for d in demos), max(d.layout.task_slots for d in demos))
+    length = max(len(d.actions) for d in demos)
+    columns = sum(d.layout.robot_slots for d in demos)
+    obs = np.zeros((length, columns, to.width), dtype=np.float32)
+    masks = np.zeros((length, columns, to.task_slots + 1), dtype=bool)
+    masks[..., -1] = True
+    actions = np.full((length, columns), to.task_slots, dtype=np.int64)
+    weight = np.zeros((length, columns), dtype=np.float32)
+    column = 0
+    for d in demos:
+        n, m, steps = d.layout.robot_slots, d.layout.task_slots, len(d.actions)
+        cols = slice(column, column + n)
+        obs[:steps, cols] = d.layout.pad(d.rows, to)
+        for t in range(steps):
+            masks[t, cols] = slot_mask(d.masks[t], n, to.task_slots)
+        actions[:steps, cols] = np.where(d.actions == m, to.task_slots, d.actions)
+        weight[:steps, cols] = d.allowed
+        column += n
+    start = np.zeros((length, columns), dtype=bool)
+    start[0] = True
+    return ImitationBatch(torch.from_numpy(obs), torch.from_numpy(masks), torch.from_numpy(actions),
+                          torch.from_numpy(weight), torch.from_numpy(start))
+
+
+def imitation_loss(actor: SetActor, batch: ImitationBatch):
+    """Mean cross-entropy of the plan's actions over the examples, the share the actor's greedy
+    choice gets right, and the number of examples."""
+    columns = batch.obs.shape[1]
+    out = actor(batch.obs, actor.initial_hidden(columns), batch.episode_start, batch.masks)
+    log_probs = torch.log_softmax(out.logits, dim=-1)
+    taken = log_probs.gather(-1, batch.actions.unsqueeze(-1)).squeeze(-1)
+    # The actor closes some tasks itself (a claimed predecessor not yet finished on arrival):
+    # a planned action it cannot take is no example either.
+    open_to_actor = taken > torch.finfo(taken.dtype).min / 2
+    weight = batch.weight * open_to_actor.to(batch.weight.dtype)
+    count = weight.sum().clamp(min=1.0)
+    loss = -(torch.where(open_to_actor, taken, torch.zeros_like(taken)) * weight).sum() / count
+    right = ((out.logits.argmax(-1) == batch.actions).float() * weight).sum() / count
+    return loss, float(right), float(weight.sum())
+
+
+def imitate(actor: SetActor, demos: Sequence[Demonstration], *, epochs: int, learning_rate: float,
+            demos_per_batch: int, seed: int, log: Callable[[str], None] = print) -> List[Dict[str, float]]:
+    """Epochs of Adam on the demonstrations, shuffled with a generator seeded by `seed`.
+    Returns each epoch's mean loss and greedy accuracy."""
+    optimizer = torch.optim.Adam(actor.parameters(), lr=learning_rate)
+    generator = torch.Generator().manual_seed(seed)
+    history = []
+    actor.train()
+    for epoch in range(epochs):
+        order = torch.randperm(len(demos), generator=generator).tolist()
+        losses, rights, weights = [], [], []
+        for start in range(0, len(order), demos_per_batch):
+            batch = batch_of([demos[i] for i in order[start:start + demos_per_batch]])
+            loss, right, count = imitation_loss(actor, batch)
+            optimizer.zero_grad(set_to_none=True)
+            loss.backward()
+            torch.nn.utils.clip_grad_norm_(actor.parameters(), 10.0)
+            optimizer.step()
+            losses.append(float(loss.detach()) * count)
+            rights.append(right * count)
+            weights.append(count)
+        total = max(sum(weights), 1.0)
+        history.append({"epoch": epoch + 1, "loss": sum(losses) / total, "accuracy": sum(rights) / total})
+        log(f"imitation epoch {epoch + 1}/{epochs} | loss {history[-1]['loss']:.4f} | "
+            f"accuracy {history[-1]['accuracy']:.3f}")
+    return history
