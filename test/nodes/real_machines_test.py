@@ -33,7 +33,15 @@ from marl_mrta.ros.process_group import stop_process_group  # noqa: E402
 
 MANAGER = "/rl_task_allocation_manager"
 FLEET_USER = "marl_mrta_fleet"   # the robots' login: another user than the launching one
-SSHD = shutil.which("sshd") or ("/usr/sbin/sshd" if os.path.exists("/usr/sbin/sshd") else None)
+# System tools live in sbin, which a user's PATH need not hold.
+SBIN_PATH = os.pathsep.join([os.environ.get("PATH", ""), "/usr/local/sbin", "/usr/sbin", "/sbin"])
+
+
+def system_tool(name):
+    return shutil.which(name, path=SBIN_PATH)
+
+
+SSHD = system_tool("sshd")
 
 
 def unavailable():
@@ -54,10 +62,10 @@ def ensure_fleet_user():
     """The user the robots' side logs in as: created once (no password, not locked, so that sshd
     takes its key without PAM)."""
     if not user_exists(FLEET_USER):
-        subprocess.run(["useradd", "--system", "--no-create-home", "--home-dir", "/nonexistent", "--shell", "/bin/bash",
+        subprocess.run([system_tool("useradd") or "useradd", "--system", "--no-create-home", "--home-dir", "/nonexistent", "--shell", "/bin/bash",
                         FLEET_USER], check=True)
     if os.geteuid() == 0:
-        subprocess.run(["usermod", "-p", "*", FLEET_USER], check=True)
+        subprocess.run([system_tool("usermod") or "usermod", "-p", "*", FLEET_USER], check=True)
 
 
 def free_port():

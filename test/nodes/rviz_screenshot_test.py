@@ -25,10 +25,11 @@ from nav_msgs.msg import OccupancyGrid, Odometry
 
 from marl_mrta.model.occupancy_map import FREE, OCCUPIED, load_map
 from marl_mrta.ros.process_group import stop_process_group
+from marl_mrta.ros.rviz_config import COLOURS
 
 BACKGROUND = np.array([48, 48, 48])        # rviz's default background colour (the config's)
-SCAN_RGB = {"tb3_0": (239, 41, 41), "tb3_1": (245, 121, 0), "tb3_2": (78, 154, 6),
-            "tb3_3": (173, 127, 168)}      # the config's LaserScan colours
+# The LaserScan colours rviz_view gives robot i (scripts/rviz_view writes the team's config).
+SCAN_RGB = {f"tb3_{i}": tuple(int(v) for v in colour.split(";")) for i, colour in enumerate(COLOURS)}
 ROBOT_RADIUS = 0.105                       # m, TB3 Burger footprint
 SCREEN = "1600x1000x24"
 

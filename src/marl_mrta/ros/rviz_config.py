@@ -11,9 +11,10 @@ import yaml
 
 TEMPLATE_ROBOT = "tb3_0"
 TASK_MARKERS = "Tasks"
-#: Colours of the robots' scans and odometry arrows, in turn (rviz "R; G; B").
-COLOURS = ("239; 41; 41", "52; 101; 164", "78; 154; 6", "245; 121; 0", "117; 80; 123", "193; 125; 17",
-           "6; 152; 154", "204; 0; 102")
+#: Colours of the robots' scans and odometry arrows, in turn (rviz "R; G; B"): those of
+#: rviz/marl_mrta.rviz's four groups first, then more; none blue, the robot model's colour.
+COLOURS = ("239; 41; 41", "245; 121; 0", "78; 154; 6", "173; 127; 168", "193; 125; 17", "6; 152; 154",
+           "204; 0; 102", "117; 80; 123")
 
 
 def robot_namespaces(robots: int, arenas: int) -> List[str]:
