@@ -29,9 +29,18 @@ from marl_mrta.ros.process_group import stop_process_group
 MANAGER = "/rl_task_allocation_manager"
 
 
+def without_wall_time(value):
+    """A document's value without its wall times (`seconds`, at any depth: the planners' too)."""
+    if isinstance(value, dict):
+        return {key: without_wall_time(item) for key, item in value.items() if key != "seconds"}
+    if isinstance(value, list):
+        return [without_wall_time(item) for item in value]
+    return value
+
+
 def episodes(data):
     """What the episodes did: everything but wall time and the chart's file name."""
-    return [{key: value for key, value in result.items() if key not in ("seconds", "gantt")}
+    return [without_wall_time({key: value for key, value in result.items() if key != "gantt"})
             for result in data["results"]]
 
 
