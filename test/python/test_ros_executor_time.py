@@ -14,3 +14,48 @@ def test_a_duration_is_the_same_from_every_start_tick():
     assert durations == {46.7}
     # The plain difference of the two doubles is not: the rounding of the absolute times shows.
     assert len({tick_stamp(t + 934) - tick_stamp(t) for t in starts}) > 1
+
+
+# The guard against stock move_base's stale success (ros-planning/navigation#949), with test
+# doubles for the executor's move_base links, simulator link and clock.
+from types import SimpleNamespace  # noqa: E402
+
+from actionlib_msgs.msg import GoalStatus  # noqa: E402
+
+from marl_mrta.ros.executor import StaleSuccessGuard  # noqa: E402
+from marl_mrta.ros.move_base_link import GoalResult  # noqa: E402
+
+
+class FakeBase:
+    def __init__(self, result=None):
+        self.result, self.sent = result, []
+
+    def send(self, x, y, yaw):
+        self.sent.append((x, y, yaw))
+        self.result = None
+
+
+def fake_executor(results, poses, now=10.3):
+    goal = SimpleNamespace(x=2.0, y=1.0, yaw=0.0)
+    return SimpleNamespace(bases=[FakeBase(r) for r in results], sim=SimpleNamespace(poses=lambda: poses),
+                           scenario=SimpleNamespace(tasks=[SimpleNamespace(id="A1", goal=goal)]),
+                           clock=SimpleNamespace(now=lambda: now), namespaces=["tb3_0", "tb3_1"])
+
+
+def test_a_quick_success_away_from_the_goal_sends_the_goal_once_more():
+    reached = GoalResult(GoalStatus.SUCCEEDED, "Goal reached.", 10.1)
+    executor = fake_executor([reached, reached], [(0.2, 1.0, 0.0), (1.98, 1.0, 0.0)])
+    guard = StaleSuccessGuard(step_start=10.0)
+    assert not guard.all_ended(executor, [0, 0], [0, 1])   # tb3_0's success is stale: goal again
+    assert executor.bases[0].sent == [(2.0, 1.0, 0.0)] and executor.bases[1].sent == []
+    executor.bases[0].result = GoalResult(GoalStatus.SUCCEEDED, "Goal reached.", 10.2)
+    assert guard.all_ended(executor, [0, 0], [0, 1])       # once only: the second result counts
+    assert executor.bases[0].sent == [(2.0, 1.0, 0.0)]
+
+
+def test_a_success_after_driving_or_a_failure_is_taken_as_it_is():
+    late = GoalResult(GoalStatus.SUCCEEDED, "Goal reached.", 14.0)
+    aborted = GoalResult(GoalStatus.ABORTED, "Failed to find a valid plan.", 10.1)
+    executor = fake_executor([late, aborted], [(0.2, 1.0, 0.0), (0.2, 1.0, 0.0)])
+    assert StaleSuccessGuard(step_start=10.0).all_ended(executor, [0, 0], [0, 1])
+    assert executor.bases[0].sent == [] and executor.bases[1].sent == []

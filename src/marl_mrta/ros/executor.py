@@ -22,13 +22,14 @@ from __future__ import annotations
 
 import math
 import time
-from typing import List, Optional, Sequence, Tuple
+from typing import Dict, List, Optional, Sequence, Tuple
 
 import rospy
 from actionlib_msgs.msg import GoalStatus
 from std_srvs.srv import Empty
 
 from marl_mrta.env.executor import RobotOutcome, StepOutcome
+from marl_mrta.evaluation.nav_comparison import is_stale_success
 from marl_mrta.model.scenario import Scenario
 from marl_mrta.ros.manager_settings import RosExecutorSettings
 from marl_mrta.ros.localization_link import LocalizationLink
@@ -48,6 +49,34 @@ def _elapsed(since: float, until: float) -> float:
     the run started (a 46.7 s episode came out as 46.700000000000045 s in a launch that started
     later)."""
     return round((until - since) * 1e9) / 1e9
+
+
+class StaleSuccessGuard:
+    """Stock move_base may report a new goal reached at once, where the robot stands: the last
+    goal's plan taken for it (ros-planning/navigation#949). Such a result (evaluation/
+    nav_comparison.is_stale_success, against the ground truth) does not end the robot's goal: the
+    goal is sent once more, and the step's times still count from its start."""
+
+    def __init__(self, step_start: float):
+        self.sent = step_start
+        self.resent: Dict[int, float] = {}   # robot -> sim time of the second send
+
+    def all_ended(self, executor: "RosExecutor", goals: Sequence[Optional[int]], pending: Sequence[int]) -> bool:
+        poses = None
+        for i in pending:
+            result = executor.bases[i].result
+            if result is None or i in self.resent or not result.succeeded:
+                continue
+            poses = poses or executor.sim.poses()
+            goal = executor.scenario.tasks[goals[i]].goal
+            distance = math.hypot(poses[i][0] - goal.x, poses[i][1] - goal.y) if poses[i] is not None else None
+            if is_stale_success(True, result.stamp - self.sent, distance):
+                rospy.logwarn("%s: move_base reported goal %s reached %.2f s after it was sent, %.2f m away "
+                              "(ros-planning/navigation#949): sent again", executor.namespaces[i],
+                              executor.scenario.tasks[goals[i]].id, result.stamp - self.sent, distance)
+                self.resent[i] = executor.clock.now()
+                executor.bases[i].send(goal.x, goal.y, goal.yaw)
+        return all(executor.bases[i].result is not None for i in pending)
 
 
 class RosExecutor:
@@ -180,7 +209,8 @@ class RosExecutor:
             await_accepted(self.bases, pending, self.settings.simulator_lost_after)
             watched = [i for i in pending if self.bases[i].result is None and self._reports_goal_ends(i)]
             self._run_until(deadline, watched)
-            if self.clock.wait_until(lambda: all(self.bases[i].result is not None for i in pending), deadline):
+            stale = StaleSuccessGuard(t0)
+            if self.clock.wait_until(lambda: stale.all_ended(self, goals, pending), deadline):
                 self._await_early_pause(watched, deadline)
             self._pause(True)
             self.sim.wait_caught_up(*self.sim.step(0))   # every controller has seen the last tick

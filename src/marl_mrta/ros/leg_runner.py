@@ -158,7 +158,7 @@ class LegRunner:
                 where = "no estimate" if error is None else f"{error[0]:.2f} m / {error[1]:.2f} rad off"
                 raise SimulatorLost(f"/{self.namespace}/amcl: {where} {self.timings.localization_wait:g} s after the reset")
             if error is None and now >= next_request:
-                self.localizer.request_update(self.timings.answer_wall)
+                self.localizer.request_update()
                 next_request = now + NOMOTION_PERIOD
             self._run_for(0.05)
 

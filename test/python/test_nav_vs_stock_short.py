@@ -1,0 +1,35 @@
+"""The differential harness's short form (bench_nav_vs_stock with a few legs): the built-in
+move_base against stock move_base, one robot at rtf 1 in the simulator, on the lab (two drawn
+legs) and on the doors map (its two fixed legs, into the dead-end pocket and out of it). The
+built-in move_base must reach every goal stock reaches, each leg within MAX_RATIO_GOAL x stock's
+sim time (the oscillation the harness was built to find takes several times as long). Skips in one line where the stock stack is not built (make stock-nav)."""
+import argparse
+
+import pytest
+
+rospkg = pytest.importorskip("rospkg", reason="ROS not available")
+bench = pytest.importorskip("marl_mrta.apps.bench_nav_vs_stock")
+from marl_mrta.evaluation.nav_comparison import MAX_RATIO_GOAL  # noqa: E402
+
+SHORT_MAPS = ("lab", "doors")
+
+
+def test_builtin_reaches_every_goal_stock_reaches_in_comparable_time(tmp_path):
+    if not bench.stock_available():
+        pytest.skip("stock navigation not available (no move_base/amcl package; make stock-nav)")
+    args = bench.parser().parse_args(["--out", str(tmp_path), "--maps", *SHORT_MAPS, "--legs", "2", "--loc-maps"])
+    assert isinstance(args, argparse.Namespace) and args.loc_maps == []
+    report = bench.run(args)
+    assert report is not None
+    assert report["errors"] == []
+    assert [r["map"] for r in report["navigation"]] == list(SHORT_MAPS)
+    for map_report in report["navigation"]:
+        name = map_report["map"]
+        comparison = map_report["comparison"]   # present only when both stacks drove every leg
+        assert comparison["stock_only"] == [], f"{name}: legs stock reached and the built-in did not"
+        assert all(r["succeeded"] for r in map_report["drives"]["builtin"]), f"{name}: {map_report['drives']}"
+        ratios = [r for r in comparison["ratios"] if r is not None]
+        assert len(ratios) == 2, f"{name}: {comparison}"
+        assert max(ratios) <= MAX_RATIO_GOAL, f"{name}: time ratios built-in / stock {ratios}"
+    doors_legs = report["navigation"][1]["legs"]
+    assert doors_legs == [leg.as_list() for leg in bench.FIXED_LEGS["doors"]]
