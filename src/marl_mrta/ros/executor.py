@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 import time
-from typing import Dict, List, Optional, Sequence, Tuple
+from typing import List, Optional, Sequence, Set, Tuple
 
 import rospy
 from actionlib_msgs.msg import GoalStatus
@@ -59,7 +59,7 @@ class StaleSuccessGuard:
 
     def __init__(self, step_start: float):
         self.sent = step_start
-        self.resent: Dict[int, float] = {}   # robot -> sim time of the second send
+        self.resent: Set[int] = set()   # robots whose goal was sent once more
 
     def all_ended(self, executor: "RosExecutor", goals: Sequence[Optional[int]], pending: Sequence[int]) -> bool:
         poses = None
@@ -74,7 +74,7 @@ class StaleSuccessGuard:
                 rospy.logwarn("%s: move_base reported goal %s reached %.2f s after it was sent, %.2f m away "
                               "(ros-planning/navigation#949): sent again", executor.namespaces[i],
                               executor.scenario.tasks[goals[i]].id, result.stamp - self.sent, distance)
-                self.resent[i] = executor.clock.now()
+                self.resent.add(i)
                 executor.bases[i].send(goal.x, goal.y, goal.yaw)
         return all(executor.bases[i].result is not None for i in pending)
 
