@@ -8,6 +8,7 @@ import pytest
 
 from marl_mrta.baselines.random_policy import RandomPolicy
 from marl_mrta.env.factory import make_env
+from marl_mrta.env.observation import float32_array
 from marl_mrta.evaluation.loop import run_episodes
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -207,3 +208,23 @@ def test_an_aborted_step_ends_the_episode_with_its_reason():
     assert out.info.episode.abort_reason == out.info.abort_reason
     with pytest.raises(RuntimeError):
         env.step([a1, a3])
+
+
+def test_float32_array_rounds_as_numpy_does():
+    values = [1 / 3, 2 / 3, 0.1, -0.0, 1e-40, 3.4e38, 1e39, -1e39, float("inf"), 1, True, 123.456]
+    with np.errstate(over="ignore"):
+        expected = np.array(values, dtype=np.float32)
+        got = float32_array(values)
+    assert got.dtype == np.float32 and got.tobytes() == expected.tobytes()
+
+
+def test_every_output_owns_writable_arrays(env):
+    first = env.reset(seed=1)
+    second = env.step([env.n_tasks, env.n_tasks])
+    for out in (first, second):
+        arrays = [out.obs, out.state, out.rewards, out.action_mask, *out.reward_components.values()]
+        assert all(a.flags.writeable for a in arrays)
+    first.action_mask[:] = False
+    first.obs[:] = -1.0
+    third = env.step([env.n_tasks, env.n_tasks])
+    assert third.action_mask.any() and (second.obs >= 0.0).all() and (third.state >= 0.0).all()

@@ -33,6 +33,6 @@ class RandomPolicy:
         rng = self._rng
         if self.choice == "all":
             return [rng.randrange(self.n_tasks + 1) for _ in range(self.n_agents)]
-        finished = output.info.finished
-        open_tasks = [j for j in range(self.n_tasks) if not finished[j]] or [self.n_tasks]
-        return [rng.choice(open_tasks) for _ in range(self.n_agents)]
+        open_tasks = [j for j, done in enumerate(output.info.finished) if not done] or [self.n_tasks]
+        choice = rng.choice
+        return [choice(open_tasks) for _ in range(self.n_agents)]

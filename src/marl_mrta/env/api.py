@@ -17,10 +17,10 @@ from marl_mrta.model.schedule import EpisodeRecord
 REWARD_COMPONENTS = ("logic", "nav", "collision", "idle")
 
 
-@dataclass
+@dataclass(slots=True)
 class StepInfo:
     """What happened in the step just taken (after reset(): step 0, nothing done). Per-robot
-    lists are indexed by robot and empty after reset()."""
+    lists are indexed by robot and empty after reset(). Slots: one is made every step."""
 
     step: int                                   # decision steps taken in this episode
     elapsed: float                              # s of episode time
@@ -38,7 +38,7 @@ class StepInfo:
     abort_reason: str = ""                      # why the episode was aborted ("" if it was not)
 
 
-@dataclass
+@dataclass(slots=True)
 class StepOutput:
     """What reset() and step() return. Arrays are indexed by robot (agent) first."""
 

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 from typing import List, Optional, Protocol, Sequence, Tuple
 
 
-@dataclass
+@dataclass(slots=True)
 class RobotOutcome:
     """What one robot's navigation did during a step."""
 
@@ -33,7 +33,7 @@ class RobotOutcome:
     failure: str = ""        # why it did not arrive ("" when it did or had no goal)
 
 
-@dataclass
+@dataclass(slots=True)
 class StepOutcome:
     robots: List[RobotOutcome]
     aborted: bool = False

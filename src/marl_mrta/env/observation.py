@@ -17,7 +17,8 @@ task its finish time / timeout (0 while open) and its logic-correct flag.
 from __future__ import annotations
 
 import math
-from typing import List, Optional, Sequence, Tuple
+import struct
+from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -55,19 +56,33 @@ class ObservationEncoder:
     def xy(self, x: float, y: float) -> List[float]:
         return [(x - self.x0) / self.width, (y - self.y0) / self.height]
 
+    def task_part(self, finished: Sequence[bool], ready: Sequence[bool], finish_time: Sequence[Optional[float]],
+                  task_correct: Sequence[Optional[bool]]) -> Tuple[List[float], List[float]]:
+        """What changes only when a task finishes, for encode(): the rows' finished and ready
+        flags, and the state's finish times and logic-correct flags."""
+        timeout = self.timeout
+        shared = [*map(float, finished), *map(float, ready)]
+        tail = ([0.0 if t is None else min(t / timeout, 1.0) for t in finish_time]
+                + [1.0 if c else 0.0 for c in task_correct])
+        return shared, tail
+
     def encode(self, step_index: int, elapsed: float, poses: Sequence[Tuple[float, float, float]],
                current_task: Sequence[Optional[int]], previous_task: Sequence[Optional[int]],
                current_goal: Sequence[Tuple[float, float]], previous_goal: Sequence[Tuple[float, float]],
                reached: Sequence[bool], last_nav: Sequence[float], last_step: float,
-               finished: Sequence[bool], ready: Sequence[bool]) -> np.ndarray:
+               tasks: Tuple[List[float], List[float]]) -> Tuple[np.ndarray, np.ndarray]:
+        """Every robot's observation (n_robots, obs_dim) and the global state (state_dim,);
+        tasks: task_part() of the episode as it stands."""
         n_tasks, t_max = self.n_tasks, self.t_max
         x0, y0, width, height = self.x0, self.y0, self.width, self.height
+        shared, task_tail = tasks
         head = [min(step_index / self.step_scale, 1.0), min(elapsed / self.timeout, 1.0)]
-        shared = [1.0 if f else 0.0 for f in finished] + [1.0 if r else 0.0 for r in ready]
         positions = [[(p[0] - x0) / width, (p[1] - y0) / height] for p in poses]
         step_norm = min(last_step / t_max, 1.0)
-        rows = []
-        task_onehot, category_onehot = self.task_onehot, self.category_onehot
+        task_onehot, category_onehot, robot_onehot, others = (self.task_onehot, self.category_onehot,
+                                                               self.robot_onehot, self.others)
+        # One flat list, converted once: the rows in robot order are the state's first part.
+        values: List[float] = []
         for i in range(self.n_robots):
             yaw = poses[i][2]
             cur = current_task[i]
@@ -75,27 +90,33 @@ class ObservationEncoder:
             prev = previous_task[i]
             prev = n_tasks if prev is None else prev
             goal, old_goal = current_goal[i], previous_goal[i]
-            row = [*head, *positions[i], (math.cos(yaw) + 1.0) * 0.5, (math.sin(yaw) + 1.0) * 0.5,
-                   *self.robot_onehot[i], *task_onehot[cur], *task_onehot[prev],
-                   (goal[0] - x0) / width, (goal[1] - y0) / height,
-                   (old_goal[0] - x0) / width, (old_goal[1] - y0) / height, 1.0 if reached[i] else 0.0,
-                   *category_onehot[cur], min(last_nav[i] / t_max, 1.0), step_norm, *shared]
-            for k in self.others[i]:
-                row += positions[k]
-            rows.append(row)
-        return np.array(rows, dtype=np.float32)
+            values += [*head, *positions[i], (math.cos(yaw) + 1.0) * 0.5, (math.sin(yaw) + 1.0) * 0.5,
+                       *robot_onehot[i], *task_onehot[cur], *task_onehot[prev],
+                       (goal[0] - x0) / width, (goal[1] - y0) / height,
+                       (old_goal[0] - x0) / width, (old_goal[1] - y0) / height, 1.0 if reached[i] else 0.0,
+                       *category_onehot[cur], min(last_nav[i] / t_max, 1.0), step_norm, *shared]
+            for k in others[i]:
+                values += positions[k]
+        values += [head[1], head[0], *task_tail]
+        state = float32_array(values)
+        obs = state[:self.n_robots * self.obs_dim].reshape(self.n_robots, self.obs_dim).copy()
+        return obs, state
 
-    def state(self, obs: np.ndarray, step_index: int, elapsed: float,
-              finish_time: Sequence[Optional[float]], task_correct: Sequence[Optional[bool]]) -> np.ndarray:
-        timeout = self.timeout
-        tail = [min(elapsed / timeout, 1.0), min(step_index / self.step_scale, 1.0)]
-        tail += [0.0 if t is None else min(t / timeout, 1.0) for t in finish_time]
-        tail += [1.0 if c else 0.0 for c in task_correct]
-        state = np.empty(self.state_dim, dtype=np.float32)
-        split = obs.size
-        state[:split] = obs.ravel()
-        state[split:] = tail
-        return state
+
+_FLOAT32_PACKERS: Dict[int, struct.Struct] = {}
+
+
+def float32_array(values: Sequence[float]) -> np.ndarray:
+    """np.array(values, dtype=np.float32) at a third of its cost (every step's observations and
+    rewards go through it): struct rounds each double to float32 by the same C cast. It refuses
+    a value beyond float32's range, which numpy makes infinite: those take numpy's way."""
+    packer = _FLOAT32_PACKERS.get(len(values))
+    if packer is None:
+        packer = _FLOAT32_PACKERS[len(values)] = struct.Struct(f"={len(values)}f")
+    try:
+        return np.frombuffer(bytearray(packer.pack(*values)), dtype=np.float32)
+    except OverflowError:
+        return np.array(values, dtype=np.float32)
 
 
 # ----------------------------------------------------------------------------- the set view

@@ -16,7 +16,7 @@ from marl_mrta.model.rules import resolve_step
 from marl_mrta.model.schedule import EpisodeRecord, ScheduleEntry
 from marl_mrta.env.api import REWARD_COMPONENTS, StepInfo, StepOutput
 from marl_mrta.env.executor import Executor
-from marl_mrta.env.observation import ObservationEncoder
+from marl_mrta.env.observation import ObservationEncoder, float32_array
 from marl_mrta.env.settings import TaskSettings
 
 
@@ -38,6 +38,9 @@ class TaskEnvironment:
         self._predecessors = [list(p) for p in scenario.predecessors]
         self._service = [t.service_time for t in scenario.tasks]
         self._goal_xy = [(t.goal.x, t.goal.y) for t in scenario.tasks]
+        self._robot_ids = [r.id for r in scenario.robots]
+        self._task_ids = [t.id for t in scenario.tasks]
+        self._timeout = scenario.episode_timeout
         self._next_seed = seed
         self.record: Optional[EpisodeRecord] = None
 
@@ -64,13 +67,13 @@ class TaskEnvironment:
         self.last_nav = [0.0] * n
         self.last_step = 0.0
         self.over = False
-        s = self.scenario
-        self.record = EpisodeRecord(s.name, [r.id for r in s.robots], [t.id for t in s.tasks],
+        self.record = EpisodeRecord(self.scenario.name, list(self._robot_ids), list(self._task_ids),
                                     finish_time=self.finish_time, finished_by=self.finished_by,
                                     task_logic_correct=self.task_correct, nav_time=[0.0] * n,
                                     idle_time=[0.0] * n, collisions=[0] * n)
-        return self._output(poses, np.zeros(n, dtype=np.float32),
-                            {name: np.zeros(n, dtype=np.float32) for name in REWARD_COMPONENTS}, False, False,
+        self._tasks_changed()
+        *components, total = np.zeros((len(REWARD_COMPONENTS) + 1, n), dtype=np.float32)
+        return self._output(poses, total, dict(zip(REWARD_COMPONENTS, components)), False, False,
                             StepInfo(step=0, elapsed=0.0, finished=list(self.finished)))
 
     def step(self, actions: Sequence[int]) -> StepOutput:
@@ -79,50 +82,63 @@ class TaskEnvironment:
         if len(actions) != self.n_agents:
             raise ValueError(f"expected {self.n_agents} actions, got {len(actions)}")
         none = self.n_tasks
-        values = [int(a) for a in actions]
+        values = list(map(int, actions))
         if min(values) < 0 or max(values) > none:
             raise ValueError(f"actions {values} outside 0..{none}")
         goals: List[Optional[int]] = [None if a == none else a for a in values]
 
+        executor = self.executor
         start = self.elapsed
-        time_limit = self.scenario.episode_timeout - start
-        poses_before = self.executor.poses()
-        outcome = self.executor.start_step(goals, time_limit)
+        time_limit = self._timeout - start
+        poses_before = executor.poses()
+        outcome = executor.start_step(goals, time_limit)
         robots = outcome.robots
+        finished = self.finished
         resolution = resolve_step(goals, [r.nav_time for r in robots], [r.reached for r in robots],
-                                  [r.collisions for r in robots], self.finished, self._predecessors,
+                                  [r.collisions for r in robots], finished, self._predecessors,
                                   self._service, time_limit, self.settings.min_step)
-        self.executor.finish_step(resolution.duration)
-        has_task = [g is not None for g in goals]
+        duration = resolution.duration
+        executor.finish_step(duration)
         correct = resolution.correct_order
         finished_now = resolution.robot_finished
         nav = resolution.nav_time
         idle = resolution.idle_time
         collisions = resolution.collisions
         reached = resolution.reached
-        rewards = step_rewards(self.reward, has_task, correct, finished_now, nav, collisions, idle)
+        busy = resolution.busy_time
+        rewards = step_rewards(self.reward, [g is not None for g in goals], correct, finished_now, nav, collisions,
+                               idle)
 
         record = self.record
         n_before = self.n_finished
         order_of = {}
         for k, done in enumerate(resolution.finished):
-            self.finished[done.task] = True
+            finished[done.task] = True
             self.finish_time[done.task] = start + done.finish_time
             self.finished_by[done.task] = done.robot
             self.task_correct[done.task] = correct[done.robot]
             order_of[done.task] = n_before + k + 1
-        self.n_finished = n_before + len(resolution.finished)
+        step_index = self.step_index
+        entries, total_nav, total_idle, total_collisions = (record.entries, record.nav_time, record.idle_time,
+                                                            record.collisions)
+        finished_task: List[Optional[int]] = [None] * self.n_agents
+        finish_order: List[Optional[int]] = [None] * self.n_agents
         for i, goal in enumerate(goals):
-            record.nav_time[i] += nav[i]
-            record.idle_time[i] += idle[i]
-            record.collisions[i] += collisions[i]
+            total_nav[i] += nav[i]
+            total_idle[i] += idle[i]
+            total_collisions[i] += collisions[i]
             if goal is not None:
                 fin = finished_now[i]
-                record.entries.append(ScheduleEntry(
-                    i, goal, self.step_index, start, start + nav[i] if reached[i] else None, start + nav[i], fin,
-                    order_of[goal] if fin else None, correct[i], start + resolution.busy_time[i] if fin else None))
-        record.step_durations.append(resolution.duration)
+                if fin:
+                    finished_task[i], finish_order[i] = goal, order_of[goal]
+                end = start + nav[i]
+                entries.append(ScheduleEntry(i, goal, step_index, start, end if reached[i] else None, end, fin,
+                                             finish_order[i], correct[i], start + busy[i] if fin else None))
+        record.step_durations.append(duration)
         record.joint_actions.append(goals)
+        if order_of:
+            self.n_finished = n_before + len(order_of)
+            self._tasks_changed()
 
         self.previous_task = self.current_task
         self.current_task = goals
@@ -131,30 +147,25 @@ class TaskEnvironment:
         self.current_goal = [goal_xy[g] if g is not None else (p[0], p[1]) for g, p in zip(goals, poses_before)]
         self.reached = reached
         self.last_nav = nav
-        self.last_step = resolution.duration
-        self.elapsed = start + resolution.duration
-        self.step_index += 1
+        self.last_step = duration
+        self.elapsed = elapsed = start + duration
+        self.step_index = step_index + 1
 
         done = self.n_finished == self.n_tasks
-        truncated = not done and (outcome.aborted or self.elapsed >= self.scenario.episode_timeout - 1e-9)
-        info = StepInfo(
-            step=self.step_index, elapsed=self.elapsed, finished=list(self.finished),
-            step_duration=resolution.duration, nav_time=nav, idle_time=idle, collisions=collisions,
-            reached=reached, finished_task=[g if f else None for g, f in zip(goals, finished_now)],
-            correct_order=correct, failure=[r.failure for r in robots],
-            finish_order=[order_of[g] if f else None for g, f in zip(goals, finished_now)])
+        truncated = not done and (outcome.aborted or elapsed >= self._timeout - 1e-9)
+        info = StepInfo(step_index + 1, elapsed, list(finished), duration, nav, idle, collisions, reached,
+                        finished_task, correct, [r.failure for r in robots], finish_order)
         if done or truncated:
             self.over = True
-            record.makespan = self.elapsed
+            record.makespan = elapsed
             record.complete = done
             record.truncated = truncated
             record.abort_reason = outcome.abort_reason if outcome.aborted else ""
             info.episode = record
             info.abort_reason = record.abort_reason
-        table = np.array([rewards.logic, rewards.nav, rewards.collision, rewards.idle, rewards.total],
-                         dtype=np.float32)
-        components = {"logic": table[0], "nav": table[1], "collision": table[2], "idle": table[3]}
-        return self._output(self.executor.poses(), table[4], components, done, truncated, info)
+        table = float32_array([*rewards.logic, *rewards.nav, *rewards.collision, *rewards.idle, *rewards.total])
+        *components, total = table.reshape(len(REWARD_COMPONENTS) + 1, self.n_agents)
+        return self._output(executor.poses(), total, dict(zip(REWARD_COMPONENTS, components)), done, truncated, info)
 
     # ------------------------------------------------------------------ helpers
 
@@ -180,13 +191,16 @@ class TaskEnvironment:
             return [not f for f in self.finished] + [True]
         return list(ready) + [True]
 
-    def _output(self, poses, rewards, components, done, truncated, info) -> StepOutput:
+    def _tasks_changed(self) -> None:
+        """What depends only on the finished tasks, computed again when one finishes, not every step."""
         ready = self.ready_flags()
-        obs = self.encoder.encode(self.step_index, self.elapsed, poses, self.current_task, self.previous_task,
-                                  self.current_goal, self.previous_goal, self.reached, self.last_nav,
-                                  self.last_step, self.finished, ready)
-        state = self.encoder.state(obs, self.step_index, self.elapsed, self.finish_time, self.task_correct)
-        mask = np.empty((self.n_agents, self.n_actions), dtype=bool)
-        mask[:] = self.action_mask_row(ready)
-        return StepOutput(obs=obs, state=state, rewards=rewards, reward_components=components, done=done,
-                          truncated=truncated, action_mask=mask, info=info)
+        self._task_part = self.encoder.task_part(self.finished, ready, self.finish_time, self.task_correct)
+        # Read-only: every output gets a copy of it.
+        self._mask = np.frombuffer(bytes(self.action_mask_row(ready) * self.n_agents), dtype=bool).reshape(
+            self.n_agents, self.n_actions)
+
+    def _output(self, poses, rewards, components, done, truncated, info) -> StepOutput:
+        obs, state = self.encoder.encode(self.step_index, self.elapsed, poses, self.current_task, self.previous_task,
+                                         self.current_goal, self.previous_goal, self.reached, self.last_nav,
+                                         self.last_step, self._task_part)
+        return StepOutput(obs, state, rewards, components, done, truncated, self._mask.copy(), info)

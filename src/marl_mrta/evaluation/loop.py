@@ -19,8 +19,9 @@ def run_episode(env: TaskAllocationEnv, policy: Policy, seed: int, episode: Opti
     schedule record; RuntimeError when it has not ended after max_steps decisions."""
     output = env.reset(seed=seed)
     policy.begin_episode(output, episode)
+    step, act = env.step, policy.act
     for _ in range(max_steps):
-        output = env.step(policy.act(output))
+        output = step(act(output))
         if on_step is not None:
             on_step(output)
         if output.done or output.truncated:

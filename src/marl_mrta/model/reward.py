@@ -155,7 +155,7 @@ def idle_reward(config: RewardConfig, idle_time: float) -> float:
     return config.idle_per_second * idle_time
 
 
-@dataclass
+@dataclass(slots=True)
 class RewardBreakdown:
     """Per-robot unweighted components (names as env.api.REWARD_COMPONENTS) and weighted totals."""
 
@@ -170,16 +170,21 @@ def step_rewards(config: RewardConfig, has_task: Sequence[bool], correct_order: 
                  finished: Sequence[bool], nav_time: Sequence[float], collisions: Sequence[int],
                  idle_time: Sequence[float]) -> RewardBreakdown:
     """Rewards of every robot for one decision step."""
-    out = RewardBreakdown([], [], [], [], [])
-    for i in range(len(has_task)):
-        r_logic = logic_reward(config, has_task[i], correct_order[i], finished[i])
-        r_nav = nav_reward(config, has_task[i], nav_time[i])
+    # One pass filling all five lists: this runs every step of every episode.
+    logic: List[float] = []
+    nav: List[float] = []
+    collision: List[float] = []
+    idle: List[float] = []
+    total: List[float] = []
+    w_logic, w_time, w_col, w_idle = config.w_logic, config.w_time, config.w_col, config.w_idle
+    for i, has in enumerate(has_task):
+        r_logic = logic_reward(config, has, correct_order[i], finished[i])
+        r_nav = nav_reward(config, has, nav_time[i])
         r_col = collision_reward(config, collisions[i])
         r_idle = idle_reward(config, idle_time[i])
-        out.logic.append(r_logic)
-        out.nav.append(r_nav)
-        out.collision.append(r_col)
-        out.idle.append(r_idle)
-        out.total.append(config.w_logic * r_logic + config.w_time * r_nav
-                         + config.w_col * r_col + config.w_idle * r_idle)
-    return out
+        logic.append(r_logic)
+        nav.append(r_nav)
+        collision.append(r_col)
+        idle.append(r_idle)
+        total.append(w_logic * r_logic + w_time * r_nav + w_col * r_col + w_idle * r_idle)
+    return RewardBreakdown(logic, nav, collision, idle, total)

@@ -19,10 +19,10 @@ Rules (docs/task_allocation.md, "Step rules"):
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import List, Optional, Sequence
+from typing import List, Optional, Sequence, Tuple
 
 
-@dataclass
+@dataclass(slots=True)
 class FinishedTask:
     task: int
     robot: int
@@ -30,7 +30,7 @@ class FinishedTask:
     finish_time: float       # arrival + service time, relative to the step start
 
 
-@dataclass
+@dataclass(slots=True)
 class StepResolution:
     """The outcome of one step. Per-robot lists are indexed by robot."""
 
@@ -46,6 +46,10 @@ class StepResolution:
     finished: List[FinishedTask]     # tasks finished in this step, in order of their finish time
 
 
+def _finish_order(task: FinishedTask) -> Tuple[float, int]:
+    return task.finish_time, task.robot
+
+
 def resolve_step(goals: Sequence[Optional[int]], nav_times: Sequence[float], reached: Sequence[bool],
                  collisions: Sequence[int], finished_before: Sequence[bool],
                  predecessors: Sequence[Sequence[int]], service_times: Sequence[float],
@@ -54,8 +58,7 @@ def resolve_step(goals: Sequence[Optional[int]], nav_times: Sequence[float], rea
     n_robots = len(goals)
     # First arrival at each task that is still open.
     first_robot = {}
-    for robot in range(n_robots):
-        task = goals[robot]
+    for robot, task in enumerate(goals):
         if task is None or not reached[robot] or finished_before[task]:
             continue
         best = first_robot.get(task)
@@ -69,15 +72,14 @@ def resolve_step(goals: Sequence[Optional[int]], nav_times: Sequence[float], rea
             finish_rel[task] = end
             finished.append(FinishedTask(task, robot, nav_times[robot], end))
     if len(finished) > 1:
-        finished.sort(key=lambda f: (f.finish_time, f.robot))
+        finished.sort(key=_finish_order)
 
     robot_finished = [False] * n_robots
     correct_order = [True] * n_robots
     nav = [0.0] * n_robots
     busy = [0.0] * n_robots
     duration = 0.0
-    for robot in range(n_robots):
-        task = goals[robot]
+    for robot, task in enumerate(goals):
         if task is None:
             continue
         t = nav[robot] = nav_times[robot]

@@ -9,9 +9,10 @@ from dataclasses import asdict, dataclass, field
 from typing import Any, Dict, List, Optional
 
 
-@dataclass
+@dataclass(slots=True)
 class ScheduleEntry:
-    """One robot's attempt at one task in one decision step."""
+    """One robot's attempt at one task in one decision step (slots: every step makes some, and
+    every episode's record keeps them)."""
 
     robot: int
     task: int

@@ -128,13 +128,30 @@ def _grid_graph(cost: np.ndarray, model: TravelModel) -> csr_matrix:
                       shape=(n, n))
 
 
-def _line_max_cost(cost: np.ndarray, a: np.ndarray, b: np.ndarray) -> int:
-    """Highest cell cost on the straight segment between two cell centres (row, col)."""
-    steps = int(max(abs(b[0] - a[0]), abs(b[1] - a[1])) * 2) + 1
-    t = np.linspace(0.0, 1.0, steps + 1)
-    r = np.rint(a[0] + (b[0] - a[0]) * t).astype(int)
-    c = np.rint(a[1] + (b[1] - a[1]) * t).astype(int)
-    return int(cost[r, c].max())
+#: Sample fractions along a segment of `steps` steps, (steps + 1, 1): straightening measures
+#: thousands of segments per table, of few distinct lengths.
+_LINE_SAMPLES: Dict[int, np.ndarray] = {}
+#: Shortcuts tried at once: most reach a few dozen cells before one is costlier than its section.
+_SHORTCUT_BATCH = 32
+
+
+def _line_samples(steps: int) -> np.ndarray:
+    samples = _LINE_SAMPLES.get(steps)
+    if samples is None:
+        samples = _LINE_SAMPLES[steps] = np.linspace(0.0, 1.0, steps + 1)[:, None]
+    return samples
+
+
+def _line_max_costs(cost: np.ndarray, a: np.ndarray, ends: np.ndarray) -> np.ndarray:
+    """Highest cell cost on each straight segment from cell centre `a` to a row of `ends` (row, col),
+    sampled at twice the segment's longer extent in cells."""
+    deltas = ends - a
+    steps = np.abs(deltas).max(axis=1) * 2 + 1
+    samples = [_line_samples(s) for s in steps.tolist()]
+    lengths = steps + 1
+    cells = np.rint(a + np.repeat(deltas, lengths, axis=0) * np.concatenate(samples)).astype(int)
+    starts = np.concatenate(([0], np.cumsum(lengths)[:-1]))
+    return np.maximum.reduceat(cost[cells[:, 0], cells[:, 1]], starts)
 
 
 def straighten(cells: np.ndarray, cost: np.ndarray) -> np.ndarray:
@@ -145,13 +162,16 @@ def straighten(cells: np.ndarray, cost: np.ndarray) -> np.ndarray:
     k = len(cells)
     path_cost = cost[cells[:, 0], cells[:, 1]]
     while i < k - 1:
-        j = i + 1
-        section_max = int(max(path_cost[i], path_cost[j]))
-        while j + 1 < k:
-            section_max = max(section_max, int(path_cost[j + 1]))
-            if _line_max_cost(cost, cells[i], cells[j + 1]) > section_max:
+        # The first later point whose segment is costlier than its section ends the shortcut
+        # one point before it (the next point, i + 1, is always reachable).
+        section_max = np.maximum.accumulate(path_cost[i:])   # [c - i]: the costliest of points i..c
+        j = k - 1
+        for first in range(i + 2, k, _SHORTCUT_BATCH):
+            ends = np.arange(first, min(first + _SHORTCUT_BATCH, k))
+            blocked = np.flatnonzero(_line_max_costs(cost, cells[i], cells[ends]) > section_max[ends - i])
+            if blocked.size:
+                j = int(ends[blocked[0]]) - 1
                 break
-            j += 1
         kept.append(j)
         i = j
     return cells[kept]
@@ -193,7 +213,8 @@ def build_travel_table(grid_map: OccupancyMap, poses: Sequence[Tuple[float, floa
                     raise UnreachableGoal(b, f"({xb:g}, {yb:g}) cannot be reached from ({xa:g}, {ya:g})")
                 chain.append(prev)
             chain.reverse()
-            grid_path = np.array([(c // cols, c % cols) for c in chain])
+            chain_cells = np.array(chain)
+            grid_path = np.column_stack((chain_cells // cols, chain_cells % cols))
             corner = straighten(grid_path, cost) if len(grid_path) > 1 else grid_path
             points = np.column_stack([grid_map.origin.x + (corner[:, 1] + 0.5) * res,
                                       grid_map.origin.y + (corner[:, 0] + 0.5) * res])
