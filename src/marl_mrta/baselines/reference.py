@@ -8,8 +8,9 @@ finds the best known plan under the step rules and a proven lower bound on the o
 - "astar" when a state's (n_tasks+1)^n_robots joint actions and the tasks are few (exact.py,
   proves the optimum; for the lab scenarios in well under a second);
 - "cpsat" otherwise, and when the A* stops at a budget: the asynchronous and the synchronous
-  relaxations give lower bounds and routes (relaxation.py), the step model the best plan it
-  finds from the best one so far, and its own bound (step_model.py).
+  relaxations, and the stepwise one when the synchronous one was solved, give lower bounds and
+  routes (relaxation.py), the step model the best plan it finds from the best one so far, and
+  its own bound (step_model.py).
 
 The auction's plan is the first upper bound, and plans of other methods passed in compete for
 the best known. Proven optimal means the gap between the best plan and the bound is 0 (within
@@ -139,11 +140,15 @@ def solve_reference(instance: SchedulingInstance, settings: Optional[BaselineSet
             astar_done = not plan.details["status"].startswith("A* stopped")
             log.append(f"{plan.details['status']}; lower bound {plan.details['lower_bound']:.2f} s")
     if not astar_done:
-        for kind in ("asynchronous", "synchronous"):
+        solved = False
+        for kind in ("asynchronous", "synchronous", "stepwise"):
+            if kind == "stepwise" and not solved:
+                break           # tighter and harder than the synchronous one: hopeless when that is not solved
             upper = best()
             relaxed = solve_relaxation(instance, settings.cpsat, kind, upper, upper.makespan if upper else None,
                                        max(b for b, _ in bounds))
             log.append(relaxed.status)
+            solved = relaxed.outcome is not None and relaxed.outcome.optimal
             bounds.append((relaxed.lower_bound, f"{kind} relaxation"))
             if relaxed.routes is not None:
                 decoded = plan_from_run("exact", decode_task_lists(instance, relaxed.routes), solver=f"{kind} routes")
