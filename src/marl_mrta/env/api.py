@@ -12,12 +12,13 @@ import numpy as np
 
 from marl_mrta.model.scenario import Scenario
 from marl_mrta.model.schedule import EpisodeRecord
+from marl_mrta.common.records import STEP_RECORD
 
 #: Names of the reward components, in the order of SPEC's reward formula.
 REWARD_COMPONENTS = ("logic", "nav", "collision", "idle")
 
 
-@dataclass(slots=True)
+@dataclass(**STEP_RECORD)
 class StepInfo:
     """What happened in the step just taken (after reset(): step 0, nothing done). Per-robot
     lists are indexed by robot and empty after reset(). Slots: one is made every step."""
@@ -38,7 +39,7 @@ class StepInfo:
     abort_reason: str = ""                      # why the episode was aborted ("" if it was not)
 
 
-@dataclass(slots=True)
+@dataclass(**STEP_RECORD)
 class StepOutput:
     """What reset() and step() return. Arrays are indexed by robot (agent) first."""
 

@@ -21,8 +21,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import List, Optional, Protocol, Sequence, Tuple
 
+from marl_mrta.common.records import STEP_RECORD
 
-@dataclass(slots=True)
+
+@dataclass(**STEP_RECORD)
 class RobotOutcome:
     """What one robot's navigation did during a step."""
 
@@ -33,7 +35,7 @@ class RobotOutcome:
     failure: str = ""        # why it did not arrive ("" when it did or had no goal)
 
 
-@dataclass(slots=True)
+@dataclass(**STEP_RECORD)
 class StepOutcome:
     robots: List[RobotOutcome]
     aborted: bool = False

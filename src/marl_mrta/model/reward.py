@@ -14,6 +14,7 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 from marl_mrta.common.config import ConfigError, ConfigSection, read_yaml
 from marl_mrta.common.paths import default_config_path
+from marl_mrta.common.records import STEP_RECORD
 
 #: The keys of config/reward.yaml (section -> keys); scenario overrides use the same names.
 REWARD_SCHEMA: Dict[str, Tuple[str, ...]] = {
@@ -155,7 +156,7 @@ def idle_reward(config: RewardConfig, idle_time: float) -> float:
     return config.idle_per_second * idle_time
 
 
-@dataclass(slots=True)
+@dataclass(**STEP_RECORD)
 class RewardBreakdown:
     """Per-robot unweighted components (names as env.api.REWARD_COMPONENTS) and weighted totals."""
 

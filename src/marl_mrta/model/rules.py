@@ -21,8 +21,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import List, Optional, Sequence, Tuple
 
+from marl_mrta.common.records import STEP_RECORD
 
-@dataclass(slots=True)
+
+@dataclass(**STEP_RECORD)
 class FinishedTask:
     task: int
     robot: int
@@ -30,7 +32,7 @@ class FinishedTask:
     finish_time: float       # arrival + service time, relative to the step start
 
 
-@dataclass(slots=True)
+@dataclass(**STEP_RECORD)
 class StepResolution:
     """The outcome of one step. Per-robot lists are indexed by robot."""
 

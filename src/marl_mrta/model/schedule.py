@@ -8,8 +8,10 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, field
 from typing import Any, Dict, List, Optional
 
+from marl_mrta.common.records import STEP_RECORD
 
-@dataclass(slots=True)
+
+@dataclass(**STEP_RECORD)
 class ScheduleEntry:
     """One robot's attempt at one task in one decision step (slots: every step makes some, and
     every episode's record keeps them)."""
