@@ -185,7 +185,7 @@ def test_reference_serves_a_larger_team_with_cpsat():
     larger = random_instance(random.Random(3), 6, 14)
     assert choose_solver(larger, settings) == "cpsat"
     reference = solve_reference(larger, settings)
-    assert reference.solver == "cpsat" and len(reference.log) in (3, 4)     # stepwise after a solved synchronous
+    assert reference.solver == "cpsat" and len(reference.log) in (3, 4, 5)  # stepwise after a solved synchronous, probes
     assert reference.lower_bound <= reference.best_makespan
     assert reference.gap == 0.0 or not reference.plan.proven_optimal
     assert_replays(larger, reference.plan)
@@ -196,6 +196,6 @@ def test_reference_falls_back_to_cpsat_when_astar_stops():
     settings = dataclasses.replace(load_baseline_settings().with_cpsat(time_limit=1.0),
                                    astar=AStarBudget(max_states=30))
     reference = solve_reference(inst, settings)
-    assert reference.log[0].startswith("A* stopped at") and len(reference.log) in (4, 5)
+    assert reference.log[0].startswith("A* stopped at") and len(reference.log) in (4, 5, 6)
     assert reference.lower_bound <= solve_exact(inst).makespan + 1e-9
     assert_replays(inst, reference.plan)

@@ -10,7 +10,9 @@ finds the best known plan under the step rules and a proven lower bound on the o
 - "cpsat" otherwise, and when the A* stops at a budget: the asynchronous and the synchronous
   relaxations, and the stepwise one when the synchronous one was solved, give lower bounds and
   routes (relaxation.py), the step model the best plan it finds from the best one so far, and
-  its own bound (step_model.py).
+  its own bound (step_model.py); when a gap remains and the last relaxation was not solved,
+  makespan caps on the stepwise relaxation proven infeasible raise the bound, within one more
+  time limit for all caps (probing.py; the schedules found within caps are candidate plans).
 
 The auction's plan is the first upper bound, and plans of other methods passed in compete for
 the best known. Proven optimal means the gap between the best plan and the bound is 0 (within
@@ -27,6 +29,7 @@ from typing import Dict, List, Optional, Sequence, Tuple
 from marl_mrta.baselines.auction import solve_auction
 from marl_mrta.baselines.exact import batch_size, refusal, root_lower_bound, solve_exact
 from marl_mrta.baselines.plan import INFINITE_TIME, Plan, SchedulingInstance, decode_task_lists, plan_from_run
+from marl_mrta.baselines.probing import probe_lower_bound
 from marl_mrta.baselines.relaxation import solve_relaxation
 from marl_mrta.baselines.settings import BaselineSettings, load_baseline_settings
 from marl_mrta.baselines.step_model import solve_step_model
@@ -141,6 +144,7 @@ def solve_reference(instance: SchedulingInstance, settings: Optional[BaselineSet
             log.append(f"{plan.details['status']}; lower bound {plan.details['lower_bound']:.2f} s")
     if not astar_done:
         solved = False
+        stepwise_reached = math.inf      # the makespan of a stepwise schedule found
         for kind in ("asynchronous", "synchronous", "stepwise"):
             if kind == "stepwise" and not solved:
                 break           # tighter and harder than the synchronous one: hopeless when that is not solved
@@ -154,12 +158,24 @@ def solve_reference(instance: SchedulingInstance, settings: Optional[BaselineSet
                 decoded = plan_from_run("exact", decode_task_lists(instance, relaxed.routes), solver=f"{kind} routes")
                 if _usable(decoded):
                     plans.append((decoded, f"{kind} relaxation routes"))
+            if kind == "stepwise" and relaxed.optimum is not None:
+                stepwise_reached = relaxed.optimum
         known = max(b for b, _ in bounds)
         stepped = solve_step_model(instance, settings.cpsat, best(), known)
         log.append(stepped.status)
         if stepped.plan is not None:
             plans.append((stepped.plan, "cpsat step model"))
         bounds.append((stepped.lower_bound, "cpsat step model"))
+        known, upper = max(b for b, _ in bounds), best()
+        if not solved and upper is not None and upper.makespan - known > GAP_TOLERANCE:
+            # A gap the last relaxation did not close: caps on the stepwise one, the tightest.
+            probed = probe_lower_bound(instance, settings.cpsat, "stepwise", known, min(upper.makespan, stepwise_reached))
+            log.append(probed.status)
+            bounds.append((probed.lower_bound, "stepwise relaxation probed"))
+            for routes in probed.routes:
+                decoded = plan_from_run("exact", decode_task_lists(instance, routes), solver="stepwise probe routes")
+                if _usable(decoded):
+                    plans.append((decoded, "stepwise probe routes"))
     lower, bound_source = max(bounds, key=lambda b: b[0])
     chosen = best()
     if chosen is None:

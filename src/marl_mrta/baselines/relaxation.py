@@ -38,6 +38,9 @@ bound of the step-rule optimum. Times are rounded down to ticks of 10 ms (floor(
 the integer optimum stays a lower bound of the exact one. test_task_cpsat.py compares each
 with the A*'s optimum on random instances and the lab scenarios. The routes of the best
 solution are also a candidate schedule: plan.decode_task_lists turns them into steps.
+
+With a makespan cap a relaxation answers only whether a schedule within the cap exists;
+probing.py bisects caps to raise a bound the optimisation leaves loose.
 """
 from __future__ import annotations
 
@@ -72,11 +75,24 @@ def arc_count(instance: SchedulingInstance) -> int:
 
 def solve_relaxation(instance: SchedulingInstance, budget: CpSatBudget, kind: str = "asynchronous",
                      hint: Optional[Plan] = None, upper_bound: Optional[float] = None,
-                     known_lower_bound: float = 0.0) -> RelaxationResult:
+                     known_lower_bound: float = 0.0, makespan_cap: Optional[float] = None) -> RelaxationResult:
     """One relaxation within the budget; `hint` (a complete plan) gives its first solution,
-    known_lower_bound (a bound already proven, e.g. the asynchronous one) its least makespan."""
+    known_lower_bound (a bound already proven, e.g. the asynchronous one) its least makespan.
+
+    With `makespan_cap` (s) the question is only whether a schedule of makespan at most
+    floor(cap) ticks exists (no objective: CP-SAT stops at the first one, and prunes with the
+    cap far better than when it optimises). Infeasible proves every plan at least one tick
+    longer (a plan of makespan M gives a schedule of floor(M) ticks or fewer, so a plan shorter
+    than cap + 1 tick would give one within the cap): lower_bound = cap + 1 tick. A schedule
+    found gives its routes and its makespan as `optimum` (the relaxation's optimum is at most
+    that), and no bound."""
     if kind not in KINDS:
         raise ValueError(f"relaxation kind {kind!r} is not one of {', '.join(KINDS)}")
+    cap = BOUND_TIME.floor(makespan_cap) if makespan_cap is not None else None
+    if cap is not None:
+        # Only plans shorter than cap + 1 tick matter: the step count and the horizon may use that.
+        capped_upper = BOUND_TIME.seconds(cap + 1)
+        upper_bound = capped_upper if upper_bound is None else min(upper_bound, capped_upper)
     n_r, n_t = instance.n_robots, instance.n_tasks
     arcs = arc_count(instance)
     if arcs * BYTES_PER_ARC > budget.memory_mb * 1e6:
@@ -92,7 +108,8 @@ def solve_relaxation(instance: SchedulingInstance, budget: CpSatBudget, kind: st
     arrival = [model.NewIntVar(0, horizon, f"arrival_{j}") for j in range(n_t)]
     # When task j's robot may leave it: at its finish (asynchronous) or at its step's end.
     leave = [arrival[j] + service[j] for j in range(n_t)]
-    makespan = model.NewIntVar(min(BOUND_TIME.floor(known_lower_bound), horizon), horizon, "makespan")
+    least = min(BOUND_TIME.floor(known_lower_bound), horizon)
+    makespan = model.NewIntVar(least, max(least, min(horizon, cap)) if cap is not None else horizon, "makespan")
     arc_of: Dict[tuple, cp_model.IntVar] = {}
     steps = None
     if kind != "asynchronous":
@@ -132,7 +149,10 @@ def solve_relaxation(instance: SchedulingInstance, budget: CpSatBudget, kind: st
         model.Add(makespan >= leave[j])
         for p in instance.predecessors[j]:
             model.Add(arrival[j] >= arrival[p] + service[p])
-    model.Minimize(makespan)
+    if cap is None:
+        model.Minimize(makespan)
+    else:
+        model.Add(makespan <= cap)
     if hint is not None and hint.complete:
         _hint(model, arc_of, hint)
 
@@ -150,7 +170,14 @@ def solve_relaxation(instance: SchedulingInstance, budget: CpSatBudget, kind: st
                 route.append(nxt)
                 at = nxt
             routes.append(route)
-        optimum = BOUND_TIME.seconds(outcome.objective)
+        optimum = BOUND_TIME.seconds(outcome.objective if cap is None else max(solver.Value(e) for e in leave))
+    if cap is not None:
+        lower = BOUND_TIME.seconds(cap + 1) if outcome.status == "INFEASIBLE" else 0.0
+        state = (f"makespan <= {BOUND_TIME.seconds(cap):.2f} s infeasible" if outcome.status == "INFEASIBLE" else
+                 f"makespan <= {BOUND_TIME.seconds(cap):.2f} s " + (f"feasible ({optimum:.2f} s)" if routes else "not decided"))
+        status = (f"{kind} relaxation ({arcs} arcs): {state}, CP-SAT {outcome.status} "
+                  f"after {outcome.deterministic_seconds:.1f} deterministic s")
+        return RelaxationResult(kind, lower, optimum, routes, status, outcome, {"arcs": arcs, "cap": cap, **outcome.as_dict()})
     # INFEASIBLE: no schedule at all, so no plan under the step rules either.
     lower = {"INFEASIBLE": float("inf"), "MODEL_INVALID": 0.0}.get(outcome.status, max(BOUND_TIME.seconds(outcome.bound), 0.0))
     state = "optimal" if outcome.optimal else ("feasible" if routes else "no schedule")
