@@ -21,6 +21,13 @@ def test_defaults_come_from_the_config_file():
     assert settings.executor.map_frame == "map" and settings.executor.robot_prefix == ""
 
 
+def test_the_wall_time_limit_grows_with_the_team():
+    """simulator_lost_after covers 4 robots; 8 and 16 robots, whose ticks wait for every
+    controller on the same CPUs, get twice and four times as long."""
+    settings = read_manager_settings({"scenario": "s.xml", "simulator_lost_after": 2.5}, NODE).executor
+    assert [settings.lost_after(n) for n in (1, 2, 4, 8, 16)] == [2.5, 2.5, 2.5, 5.0, 10.0]
+
+
 def test_parameters_override_defaults_and_the_output_parameter_is_ignored():
     settings = read_manager_settings({"scenario": "s.xml", "mask": "logic", "arena": 2, "robot_prefix": "arena_2/",
                                       "simulator_lost_after": 1, "env": {"n_agents": 2}}, NODE)

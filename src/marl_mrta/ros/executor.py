@@ -22,7 +22,8 @@ from __future__ import annotations
 
 import math
 import time
-from typing import List, Optional, Sequence, Set, Tuple
+from contextlib import contextmanager
+from typing import Iterator, List, Optional, Sequence, Set, Tuple
 
 import rospy
 from actionlib_msgs.msg import GoalStatus
@@ -87,11 +88,12 @@ class RosExecutor:
         self.settings = settings
         self.n_robots = scenario.n_robots
         self.namespaces = [settings.robot_prefix + robot.id for robot in scenario.robots]
-        self.sim = SimulatorLink(self.namespaces, settings.arena, settings.simulator_lost_after)
+        self.lost_after = settings.lost_after(self.n_robots)
+        self.sim = SimulatorLink(self.namespaces, settings.arena, self.lost_after)
         # Absolute names: with several arenas the manager runs in its arena's namespace (arena_k)
         # while the robot namespaces (arena_k/tb3_i) are the simulator's, from the root.
         self.bases = [MoveBaseLink("/" + ns, settings.map_frame) for ns in self.namespaces]
-        self.clock = SimClock(settings.simulator_lost_after, diagnose=self._diagnose)
+        self.clock = SimClock(self.lost_after, diagnose=self._diagnose)
         # amcl (stock or built-in) is told every reset pose; ground-truth localisation needs nothing.
         self.localizers = [LocalizationLink("/" + ns, settings.map_frame) for ns in self.namespaces] \
             if settings.localization == "amcl" else []
@@ -112,6 +114,21 @@ class RosExecutor:
         self._await_first_answers()
         rospy.loginfo("simulator at %.0f Hz%s; move_base of %s connected", config.physics_rate,
                       ", lock-step" if config.lockstep else "", ", ".join(self.namespaces))
+
+    @contextmanager
+    def start_up_limits(self) -> Iterator[None]:
+        """Within it every wait is bounded by graph_wait instead of lost_after: the first reset
+        still belongs to the start-up, when a large team's controllers finish loading while
+        planners (the reference of evaluate) may hold the CPUs."""
+        running = self.lost_after
+        self._set_lost_after(max(running, self.settings.graph_wait))
+        try:
+            yield
+        finally:
+            self._set_lost_after(running)
+
+    def _set_lost_after(self, seconds: float) -> None:
+        self.lost_after = self.sim.answer_wall = self.clock.lost_after_wall = seconds
 
     def _await_first_answers(self) -> None:
         """Steps until every controller's answer to a tick reaches this node, within graph_wait
@@ -147,7 +164,7 @@ class RosExecutor:
         for base in self.bases:
             base.forget()
             service = rospy.ServiceProxy(base.server_name + "/clear_costmaps", Empty)
-            call_bounded(service, self.settings.simulator_lost_after, f"{service.resolved_name}")
+            call_bounded(service, self.lost_after, f"{service.resolved_name}")
         self.sim.forget_poses()
         tick, stamp = self._advance(1)   # publishes the reset state
         self.sim.wait_caught_up(tick, stamp)
@@ -206,7 +223,7 @@ class RosExecutor:
         limit = min(time_limit, self.settings.goal_timeout)
         deadline = t0 + limit
         try:
-            await_accepted(self.bases, pending, self.settings.simulator_lost_after)
+            await_accepted(self.bases, pending, self.lost_after)
             watched = [i for i in pending if self.bases[i].result is None and self._reports_goal_ends(i)]
             self._run_until(deadline, watched)
             stale = StaleSuccessGuard(t0)
@@ -319,7 +336,7 @@ class RosExecutor:
 
     def _cancel_running(self) -> None:
         """Cancels every goal still running and waits until move_base has stopped it."""
-        cancel_running(self.bases, self.settings.simulator_lost_after)
+        cancel_running(self.bases, self.lost_after)
 
     def _aborted(self, goals: Sequence[Optional[int]], t0: Optional[float], reason: str) -> StepOutcome:
         """The step cannot go on: stop what can be stopped, report every robot as failed."""

@@ -20,6 +20,8 @@ from marl_mrta.ros.safety import SafetyLimits
 LOCALIZATIONS = ("ground_truth", "amcl")
 #: Private parameters the node writes itself for its clients; never read as settings.
 OUTPUT_PARAMETERS = ("env",)
+#: Robots whose controllers simulator_lost_after is meant for (RosExecutorSettings.lost_after).
+ROBOTS_PER_LOST_AFTER = 4
 #: What the robots are: the simulator (lock-step, teleporting resets) or real robots (wall time,
 #: resets by driving, the operator's go, safe stops; ros/real_executor.py).
 MODES = ("simulation", "real")
@@ -34,7 +36,7 @@ class RosExecutorSettings:
     robot_prefix: str = ""              # "" or "arena_k/": namespace prefix of this arena's robots
     arena: int = 0                      # arena index in the simulator
     goal_timeout: float = 60.0          # s of sim time before a goal counts as failed (config/task.yaml)
-    simulator_lost_after: float = 3.0   # s of wall time without an answer -> episode aborted
+    simulator_lost_after: float = 3.0   # s of wall time without an answer -> episode aborted (per ROBOTS_PER_LOST_AFTER)
     graph_wait: float = 60.0            # s of wall time to wait for the simulator and move_base at start
     align_period: float = 1.0           # s of sim time: steps start on multiples of it (0: no alignment)
     map_frame: str = "map"
@@ -43,6 +45,12 @@ class RosExecutorSettings:
     localization_settle: float = 0.6    # s of sim time run after it agrees (amcl's transform_tolerance 0.5)
     localization_tolerance_xy: float = 0.10    # m
     localization_tolerance_yaw: float = 0.10   # rad
+
+    def lost_after(self, n_robots: int) -> float:
+        """s of wall time without an answer before the simulator counts as lost, for a team of
+        n_robots: simulator_lost_after covers ROBOTS_PER_LOST_AFTER robots and grows with the
+        team, because a tick waits for every robot's controller on the same CPUs."""
+        return self.simulator_lost_after * max(1.0, n_robots / ROBOTS_PER_LOST_AFTER)
 
 
 @dataclass(frozen=True)

@@ -66,7 +66,8 @@ class TaskManagerNode:
             self.real_services = RealModeServices(self.executor, self.scenario, self._lock, self._partial_record,
                                                   self.settings.real.aborted_episode_file)
         else:
-            self.env.reset()
+            with self.executor.start_up_limits():
+                self.env.reset()
         env = self.env
         rospy.set_param("~env", {"mode": self.settings.mode,
             "scenario": str(self.scenario.source.resolve()), "robots": self.robot_ns,
