@@ -1,6 +1,6 @@
 """robot_actor: one robot's trained actor at run time (decentralised execution, docs/mappo.md).
 
-Started in the robot's namespace (launch/execute.launch). Parameters: ~policy (actor file),
+Started in the robot's namespace (launch/execute.launch). Parameters: ~policy (actor file, or generalist),
 ~agent_index (this robot's index in the scenario's robot order), ~scenario (the scenario file:
 a set actor reads its observation with the scenario's tasks and nominal travel times, which
 every robot knows). Subscribes only to this robot's task_observation (marl_mrta/RobotObservation) and publishes its choice on task_choice
@@ -12,7 +12,7 @@ a sequential policy is asked in turn, with the tasks claimed before it in `claim
 import rospy
 
 from marl_mrta.common.config import ConfigError
-from marl_mrta.mappo.policy import PolicyFileError, SetActorPolicy, load_policy
+from marl_mrta.mappo.policy import PolicyFileError, SetActorPolicy, actor_file_path, load_policy
 from marl_mrta.model.scenario import ScenarioError, load_scenario
 from marl_mrta.msg import RobotObservation, TaskChoice
 from marl_mrta.evaluation.robot_actor import ObservationError, RobotActor
@@ -50,6 +50,6 @@ def main() -> int:
         choices.publish(TaskChoice(episode=decision.episode, step=decision.step, action=decision.action))
 
     rospy.Subscriber("task_observation", RobotObservation, on_observation, queue_size=10)
-    rospy.loginfo("%s: robot %d acting with %s", name, actor.agent_index, rospy.get_param("~policy"))
+    rospy.loginfo("%s: robot %d acting with %s", name, actor.agent_index, actor_file_path(rospy.get_param("~policy")))
     rospy.spin()
     return 0

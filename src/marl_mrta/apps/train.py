@@ -22,6 +22,8 @@ from marl_mrta.model.scenario import ScenarioError
 
 #: The preset a run uses unless --preset names another (config/mappo/tuned.yaml).
 DEFAULT_PRESET = "tuned"
+#: The preset of a run started from an actor file (--init) without --preset: a minute of fine-tuning.
+FINETUNE_PRESET = "finetune"
 #: Backends an environment can be built with by this command.
 BACKENDS = ("embedded", "ros")
 #: Errors of user input; each prints as one line.
@@ -34,8 +36,9 @@ def build_parser() -> argparse.ArgumentParser:
                         help="scenario XML (default: the package's scenarios/lab_2r.xml; ros: the managers' scenario, "
                              "checked when given)")
     parser.add_argument("--preset", default=None,
-                        help="tuned | sequential | paper | set | path to a YAML of MAPPO settings "
-                             "(default tuned; set: the set actor, any scenario size; see config/mappo/)")
+                        help="tuned | sequential | paper | set | finetune | path to a YAML of MAPPO settings "
+                             "(default tuned, with --init finetune; set: the set actor, any scenario size; "
+                             "see config/mappo/)")
     parser.add_argument("--backend", choices=BACKENDS, default="embedded",
                         help="embedded: the embedded executor; ros: running task managers in the ROS simulation")
     parser.add_argument("--arenas", type=int, default=None,
@@ -50,9 +53,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--resume", action="store_true",
                         help="continue the run in --out from its checkpoint (its stored settings and seed)")
     parser.add_argument("--init", default=None, metavar="ACTOR",
-                        help="start from a set actor's file (actor.pt of a run with actor: set), fine-tuning it "
-                             "on the scenario (settings with actor: set); none: new weights "
-                             "(default: the preset's init_actor)")
+                        help="start from a set actor's file (actor.pt of a run with actor: set) or the shipped "
+                             "`generalist`, fine-tuning it on the scenario (settings with actor: set; without "
+                             "--preset the finetune preset: a minute); none: new weights (default: the preset's "
+                             "init_actor)")
     return parser
 
 
@@ -127,7 +131,7 @@ def _resumed_runner(args: argparse.Namespace, log: Callable[[str], None]) -> Run
 
 
 def _fresh_runner(args: argparse.Namespace, log: Callable[[str], None]) -> Runner:
-    preset = args.preset or DEFAULT_PRESET
+    preset = args.preset or (FINETUNE_PRESET if args.init not in (None, "none") else DEFAULT_PRESET)
     seed = 0 if args.seed is None else args.seed
     config = _settings(args, preset)
     scenario_arg = args.scenario if args.scenario is not None else (

@@ -3,8 +3,9 @@
     train_generalist --out results/runs/generalist --scenarios 240 --seed 0
 
 Stages, each seeded (a run repeats bit for bit), each timed:
-1. scenarios: `--scenarios` drawn by model/generator.py, 2-8 robots and 4-32 tasks (the generator
-   draws the map, the tasks, the precedence and the service times), written under <out>/scenarios,
+1. scenarios: `--scenarios` drawn by model/generator.py, `--robots` 2-8 robots and `--tasks` 4-32
+   tasks (the generator draws the map, the tasks, the precedence and the service times), written
+   under <out>/scenarios,
    and the package's lab scenarios (--no-lab: not);
 2. plans: per scenario the best consistent plan of the GA, the auction and, for teams small enough
    for it, the exact solver within a short budget (baselines/);
@@ -51,11 +52,13 @@ from marl_mrta.mappo.runner import RunError, Runner, make_deterministic
 from marl_mrta.mappo.set_networks import SetActor
 from marl_mrta.mappo.set_view import SetView
 from marl_mrta.mappo.training_env import set_view_pool
-from marl_mrta.model.generator import GeneratorError, ScenarioRequest, generate_scenarios
+from marl_mrta.model.generator import (MAX_ROBOTS, MAX_TASKS, MIN_ROBOTS, MIN_TASKS, GeneratorError, ScenarioRequest,
+                                       generate_scenarios)
 from marl_mrta.model.scenario import Scenario, ScenarioError, load_scenario
 
-#: Teams the generalist is trained on (the generator offers 2-16 robots, 4-32 tasks).
+#: Teams and task counts the generalist is trained on by default (the generator offers 2-16 robots, 4-32 tasks).
 TRAIN_ROBOTS = (2, 8)
+TRAIN_TASKS = (4, 32)
 #: The package's scenarios trained on besides the generated ones (unless --no-lab).
 LAB_SCENARIOS = ("lab_2r", "lab_3r", "lab_4r")
 #: Seeds tried per scenario before the generator's refusal stands.
@@ -65,19 +68,21 @@ TEACHER_EXACT_SECONDS = 5.0
 
 
 def generated_scenarios(count: int, seed: int, out_dir: Path, prefix: str,
-                        robots: Tuple[int, int] = TRAIN_ROBOTS) -> List[Scenario]:
-    """`count` scenarios, scenario k with a team of robots[0]..robots[1] drawn from (seed, k) and the
-    rest drawn by the generator (generate_scenarios: tasks, layout, precedence, map size)."""
+                        robots: Tuple[int, int] = TRAIN_ROBOTS, tasks: Tuple[int, int] = TRAIN_TASKS) -> List[Scenario]:
+    """`count` scenarios, scenario k with a team of robots[0]..robots[1] and tasks[0]..tasks[1] tasks
+    drawn from (seed, k) and the rest drawn by the generator (generate_scenarios: layout,
+    precedence, map size)."""
     model = load_embedded_settings().travel
     max_leg = load_task_settings().goal_timeout
     draw = random.Random(seed)
     scenarios = []
     for k in range(count):
-        base = ScenarioRequest(n_robots=draw.randint(*robots), max_leg=max_leg, name=f"{prefix}_{k:03d}")
+        base = ScenarioRequest(n_robots=draw.randint(*robots), n_tasks=draw.randint(*tasks), max_leg=max_leg,
+                               name=f"{prefix}_{k:03d}")
         for attempt in range(GENERATOR_ATTEMPTS):
             try:   # a draw whose legs exceed the goal timeout is drawn again from the next seed
                 scenarios += generate_scenarios(1, seed * 1_000 + k + 100_000 * attempt, out_dir, base, model,
-                                                keep=("n_robots",))
+                                                keep=("n_robots", "n_tasks"))
                 break
             except GeneratorError:
                 if attempt == GENERATOR_ATTEMPTS - 1:
@@ -139,6 +144,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="train_generalist", description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, required=True, help="run directory")
     parser.add_argument("--scenarios", type=int, default=240, help="generated training scenarios (default 240)")
+    parser.add_argument("--robots", type=int, nargs=2, default=TRAIN_ROBOTS, metavar=("MIN", "MAX"),
+                        help=f"team sizes of the generated scenarios (default {TRAIN_ROBOTS[0]} {TRAIN_ROBOTS[1]})")
+    parser.add_argument("--tasks", type=int, nargs=2, default=TRAIN_TASKS, metavar=("MIN", "MAX"),
+                        help=f"task counts of the generated scenarios (default {TRAIN_TASKS[0]} {TRAIN_TASKS[1]})")
     parser.add_argument("--holdout", type=int, default=12, help="generated scenarios that pick the best actor (default 12)")
     parser.add_argument("--seed", type=int, default=0, help="seed of every stage (default 0)")
     parser.add_argument("--preset", default="generalist",
@@ -203,10 +212,11 @@ def train_generalist(args: argparse.Namespace, log: Callable[[str], None] = prin
     out.mkdir(parents=True, exist_ok=True)
     times: Dict[str, float] = {}
     started = time.perf_counter()
-    scenarios = generated_scenarios(args.scenarios, args.seed, out / "scenarios", "train")
+    sizes = {"robots": tuple(args.robots), "tasks": tuple(args.tasks)}
+    scenarios = generated_scenarios(args.scenarios, args.seed, out / "scenarios", "train", **sizes)
     if args.lab:
         scenarios += [load_scenario(package_root() / "scenarios" / f"{name}.xml") for name in LAB_SCENARIOS]
-    holdout = generated_scenarios(args.holdout, args.seed + 1, out / "scenarios", "holdout")
+    holdout = generated_scenarios(args.holdout, args.seed + 1, out / "scenarios", "holdout", **sizes)
     times["scenarios_s"] = time.perf_counter() - started
     mark = time.perf_counter()
     plans = plans_for(list(scenarios) + list(holdout), out / "plans.json", log)
@@ -228,7 +238,7 @@ def train_generalist(args: argparse.Namespace, log: Callable[[str], None] = prin
         best, checks = _mappo_stage(config, scenarios, start, out, args.seed, holdout, references, args.check_every, log)
     times["mappo_s"] = time.perf_counter() - mark
     times["total_s"] = time.perf_counter() - started
-    summary = {"scenarios": len(scenarios), "holdout": len(holdout), "seed": args.seed, "settings": config_to_dict(config),
+    summary = {"scenarios": len(scenarios), "holdout": len(holdout), "seed": args.seed, **sizes, "settings": config_to_dict(config),
                "seconds": {k: round(v, 1) for k, v in times.items()}, "imitation": imitation,
                "imitation_check": imitated, "mappo_checks": checks, "best_check": best}
     (out / "generalist.json").write_text(json.dumps(summary, indent=1, allow_nan=True))
@@ -243,6 +253,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     try:
         if args.scenarios < 1 or args.holdout < 1:
             raise ConfigError("--scenarios, --holdout: at least 1 each")
+        for option, (low, high), (least, most) in (("--robots", args.robots, (MIN_ROBOTS, MAX_ROBOTS)),
+                                                    ("--tasks", args.tasks, (MIN_TASKS, MAX_TASKS))):
+            if not least <= low <= high <= most:
+                raise ConfigError(f"{option}: {low} {high} is not a range within {least}..{most}")
         train_generalist(args)
     except (ConfigError, ScenarioError, GeneratorError, RunError) as error:
         print(f"train_generalist: {error}", file=sys.stderr)

@@ -47,6 +47,8 @@ class MappoConfig:
     # Data collection
     n_envs: int = setting(8, "environment instances stepped together (the paper's 8 threads)", low=1)
     total_env_steps: int = setting(70_000, "training budget in decision steps summed over all environments", low=1)
+    max_wall_seconds: float = setting(0.0, "also stop once training (with its evaluations) has taken this many seconds "
+                                      "of wall time, then evaluate once more (0 = no limit)", low=0.0)
     batch_size: int = setting(1000, "decision steps collected per update, over all environments", low=1)
     minibatch_size: int = setting(256, "decision steps per minibatch (rounded to whole chunks)", low=1)
     chunk_length: int = setting(25, "GRU training sequence length in decision steps; divides batch_size / n_envs", low=1)

@@ -13,6 +13,7 @@ from typing import Any, Dict, Optional, Sequence, Tuple, Union
 import numpy as np
 import torch
 
+from marl_mrta.common.paths import package_root
 from marl_mrta.mappo.claims import ClaimRules, actor_input_size, is_sequential, with_claims, with_set_claims
 from marl_mrta.mappo.networks import Actor, masked_logits, sample_actions
 from marl_mrta.mappo.set_networks import SetActor
@@ -25,8 +26,20 @@ ACTOR_FORMAT = "marl_mrta.mappo.actor/1"
 SET_ACTOR_FORMAT = "marl_mrta.mappo.actor/2"
 
 
+#: Actor files shipped with the package, by the name that stands for them wherever an actor file
+#: is taken (evaluate --policy, execute.launch policy:=, train --init): policies/<name>.pt.
+SHIPPED_POLICIES = ("generalist",)
+
+
 class PolicyFileError(ValueError):
     """An unreadable or foreign actor file; str(error) is one line naming the file."""
+
+
+def actor_file_path(policy: Union[str, Path]) -> Path:
+    """The file an actor reference names: a shipped policy's name (SHIPPED_POLICIES), or a path."""
+    if str(policy) in SHIPPED_POLICIES:
+        return package_root() / "policies" / f"{policy}.pt"
+    return Path(policy)
 
 
 def atomic_torch_save(obj: Any, path: Union[str, Path]) -> None:
@@ -221,8 +234,8 @@ class SetActorPolicy(ActorPolicy):
 
 
 def read_actor_file(policy: Union[str, Path]) -> Tuple[Path, Dict[str, Any]]:
-    """An actor file's path and its contents (either format)."""
-    path = Path(policy)
+    """An actor file's path and its contents (either format); `policy` is a path or a shipped name."""
+    path = actor_file_path(policy)
     try:
         data = torch.load(path, map_location="cpu", weights_only=True)
     except FileNotFoundError:

@@ -547,7 +547,7 @@ class Runner:
         reached = False
         abandoned = False
         try:
-            while self.update < c.n_updates and not self.stop_requested and not reached:
+            while self.update < c.n_updates and not self.stop_requested and not reached and not self.out_of_time:
                 n_episodes = len(self.history["episodes"])
                 try:
                     metrics = self.train_one_update()
@@ -567,6 +567,9 @@ class Runner:
         finally:
             for sig, handler in previous.items():
                 signal.signal(sig, handler)
+        if self.out_of_time and not abandoned and not self.stop_requested and \
+                (not self.history["evaluations"] or self.history["evaluations"][-1]["update"] != self.update):
+            self.log(self._progress_line(metrics, session_start, session_steps, self.evaluate()))
         if not abandoned:
             self.save_checkpoint()
         self.finish()
@@ -575,6 +578,11 @@ class Runner:
                           wall_time=self.wall_time, greedy_makespan=last_eval, time_to_target=self.time_to_target,
                           steps_to_target=self.steps_to_target, stopped_early=self.update < c.n_updates,
                           last_metrics=metrics)
+
+    @property
+    def out_of_time(self) -> bool:
+        """max_wall_seconds of training wall time are spent."""
+        return 0.0 < self.config.max_wall_seconds <= self.wall_time
 
     def finish(self) -> None:
         """history.json and the plots; closes TensorBoard."""

@@ -1,0 +1,225 @@
+"""Benchmark: the shipped generalist on scenarios it never saw, zero-shot and after a minute of fine-tuning.
+
+Test scenarios are drawn by model/generator.py from a seed no training run uses (`--seed`),
+`--robots` x `--tasks` in size; the lab scenarios are added. Per scenario:
+- the reference: the best known plan and the proven lower bound (baselines/reference.py, CP-SAT
+  limited to `--reference-seconds` per model); every ratio below is a makespan ÷ that bound;
+- zero-shot: the generalist's greedy episode (embedded, ideal), and its time per decision;
+- the GA's plan;
+- on the first `--finetune` test scenarios and the lab ones: `train --init generalist` (preset
+  finetune: one minute of wall time) and its best greedy episode;
+- on the first `--mappo` test scenarios: per-scenario MAPPO from new weights (`--mappo-preset`,
+  default tuned, train's default, within `--mappo-seconds`).
+An episode that is not complete and logic-consistent counts as a failure (ratio inf, listed).
+Writes <out>/bench_generalise.json (headline figures first, tools/bench_table.py).
+
+  rosrun marl_mrta bench_generalise [--out results] [--policy generalist] [--scenarios 100] [--seed 9]
+      [--robots 2 4] [--tasks 4 12] [--finetune 10] [--mappo 3] [--reference-seconds 10]
+The defaults take about 40 min of wall time on 2 cores.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import platform
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any, Callable, Dict, List, Optional, Sequence
+
+import numpy as np
+
+from marl_mrta.apps.train_generalist import LAB_SCENARIOS, generated_scenarios
+from marl_mrta.baselines.ga import solve_ga
+from marl_mrta.baselines.reference import scheduling_instance, solve_reference
+from marl_mrta.baselines.settings import load_baseline_settings
+from marl_mrta.common.config import ConfigError
+from marl_mrta.common.paths import package_root
+from marl_mrta.env.factory import make_env
+from marl_mrta.env.settings import load_task_settings
+from marl_mrta.evaluation.loop import run_episode
+from marl_mrta.evaluation.policies import LearnedPolicy
+from marl_mrta.evaluation.training import on_new_env
+from marl_mrta.mappo.config import load_config, resolve_preset
+from marl_mrta.mappo.policy import PolicyFileError, SetActorPolicy, load_policy, read_actor_file
+from marl_mrta.mappo.runner import RunError, Runner
+from marl_mrta.mappo.training_env import embedded_factory, set_view_pool
+from marl_mrta.model.generator import GeneratorError
+from marl_mrta.model.scenario import Scenario, ScenarioError, load_scenario
+
+#: Goals of the issue, by figure.
+GOALS = {"zero_shot_mean": 1.10, "finetuned_mean": 1.03}
+
+
+def usable(record) -> bool:
+    return bool(record.complete and record.logic_consistent)
+
+
+def zero_shot(policy: SetActorPolicy, scenario: Scenario, mask: str) -> Dict[str, float]:
+    """The policy's greedy episode (embedded, ideal): makespan (inf unless complete and
+    consistent) and the wall time of its decisions, per decision step of the team."""
+    env = make_env(scenario, "embedded", mask=mask)
+    learned = LearnedPolicy(policy.for_scenario(scenario), env.n_agents)
+    timed = {"seconds": 0.0, "steps": 0}
+    act = learned.act
+
+    def timed_act(output):
+        started = time.perf_counter()
+        actions = act(output)
+        timed["seconds"] += time.perf_counter() - started
+        timed["steps"] += 1
+        return actions
+
+    learned.act = timed_act
+    record = run_episode(env, learned, seed=0)
+    return {"makespan": record.makespan if usable(record) else math.inf,
+            "decision_ms": 1000.0 * timed["seconds"] / max(1, timed["steps"])}
+
+
+def trained(scenario: Scenario, preset: str, seconds: float, seed: int, init: str, work: Path) -> Dict[str, float]:
+    """MAPPO on one scenario within `seconds` of training wall time (the preset's other budgets
+    too), from the actor file `init` ("" : new weights): the greedy makespan of the actor the run
+    leaves (its best evaluation with keep_best, else its last)."""
+    config = load_config(resolve_preset(preset), {"max_wall_seconds": seconds})
+    make = embedded_factory(scenario, config)
+    pool = set_view_pool(config, [scenario], seed) if config.actor == "set" else None
+    runner = Runner(config, make, evaluate=on_new_env(make), scenario=str(scenario.source), seed=seed,
+                    out_dir=work, log=lambda line: None, tensorboard=False, plots=False, pool=pool, init_actor=init)
+    runner.start()
+    summary = runner.run()
+    evaluations = runner.history["evaluations"]
+    last = evaluations[-1]["consistent_makespan"] if evaluations else math.inf
+    makespan = runner.best_makespan if config.keep_best else last
+    return {"makespan": makespan if math.isfinite(makespan) else math.inf, "wall_s": summary.wall_time,
+            "updates": summary.updates}
+
+
+def ratio(makespan: float, bound: float) -> float:
+    return makespan / bound if math.isfinite(makespan) and bound > 0 else math.inf
+
+
+def summary_of(ratios: Sequence[float]) -> Dict[str, Any]:
+    """Mean and p90 over the finished ones, and the failures (inf) counted apart."""
+    finite = [r for r in ratios if math.isfinite(r)]
+    return {"n": len(ratios), "failed": len(ratios) - len(finite),
+            "mean": float(np.mean(finite)) if finite else math.inf,
+            "p90": float(np.percentile(finite, 90)) if finite else math.inf,
+            "max": max(finite) if finite else math.inf}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="bench_generalise", description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, default=package_root() / "results", help="directory of bench_generalise.json")
+    parser.add_argument("--policy", default="generalist", help="set actor file, or the shipped generalist (default)")
+    parser.add_argument("--scenarios", type=int, default=100, help="generated test scenarios (default 100)")
+    parser.add_argument("--seed", type=int, default=9, help="seed of the test scenarios (default 9; training uses 0 and 1)")
+    parser.add_argument("--robots", type=int, nargs=2, default=(2, 4), metavar=("MIN", "MAX"), help="team sizes (default 2 4)")
+    parser.add_argument("--tasks", type=int, nargs=2, default=(4, 12), metavar=("MIN", "MAX"), help="task counts (default 4 12)")
+    parser.add_argument("--finetune", type=int, default=10,
+                        help="test scenarios (the first ones) also fine-tuned, besides the lab ones (default 10)")
+    parser.add_argument("--finetune-seconds", type=float, default=60.0, help="fine-tuning wall time (default 60)")
+    parser.add_argument("--mappo", type=int, default=3, help="test scenarios trained per scenario from new weights (default 3)")
+    parser.add_argument("--mappo-preset", default="tuned", help="preset of the per-scenario runs (default tuned)")
+    parser.add_argument("--mappo-seconds", type=float, default=300.0, help="their wall time (default 300)")
+    parser.add_argument("--reference-seconds", type=float, default=10.0,
+                        help="CP-SAT deterministic s per model of the reference (default 10)")
+    return parser
+
+
+def bench(args: argparse.Namespace, log: Callable[[str], None] = print) -> Dict[str, Any]:
+    path, data = read_actor_file(args.policy)
+    policy = load_policy(path)
+    if not isinstance(policy, SetActorPolicy):
+        raise PolicyFileError(f"{path}: not a set actor: the benchmark needs one that acts on any scenario")
+    mask = str(data["settings"].get("action_mask", "finished"))
+    settings = load_baseline_settings().with_cpsat(time_limit=args.reference_seconds)
+    task = load_task_settings()
+    rows: List[Dict[str, Any]] = []
+    with tempfile.TemporaryDirectory(prefix="bench_generalise_") as tmp:
+        work = Path(tmp)
+        tests = generated_scenarios(args.scenarios, args.seed, work / "scenarios", "test",
+                                    tuple(args.robots), tuple(args.tasks))
+        labs = [load_scenario(package_root() / "scenarios" / f"{name}.xml") for name in LAB_SCENARIOS]
+        for k, scenario in enumerate(labs + tests):
+            lab = k < len(labs)
+            instance = scheduling_instance(scenario, task.min_step, task.goal_timeout)
+            ga = solve_ga(instance, settings.ga, seed=0)
+            reference = solve_reference(instance, settings, candidates=[ga])
+            bound = reference.lower_bound
+            shot = zero_shot(policy, scenario, mask)
+            row: Dict[str, Any] = {
+                "scenario": scenario.name if lab else f"test_{k - len(labs):03d}", "lab": lab,
+                "robots": scenario.n_robots, "tasks": scenario.n_tasks, "best": reference.best_makespan,
+                "bound": bound, "proven_optimal": reference.proven_optimal,
+                "zero_shot": ratio(shot["makespan"], bound), "decision_ms": shot["decision_ms"],
+                "ga": ratio(ga.makespan if ga.complete and ga.logic_violations == 0 else math.inf, bound)}
+            index = k - len(labs)
+            if lab or index < args.finetune:
+                tuned = trained(scenario, "finetune", args.finetune_seconds, 0, str(path), work / f"ft_{k}")
+                row["finetuned"], row["finetune_wall_s"] = ratio(tuned["makespan"], bound), tuned["wall_s"]
+            if not lab and index < args.mappo:
+                own = trained(scenario, args.mappo_preset, args.mappo_seconds, 0, "", work / f"mappo_{k}")
+                row["mappo"], row["mappo_wall_s"] = ratio(own["makespan"], bound), own["wall_s"]
+            rows.append(row)
+            extra = "".join(f", {key} {row[key]:.3f}" for key in ("finetuned", "mappo") if key in row)
+            log(f"{k + 1}/{len(labs) + len(tests)} {row['scenario']} {row['robots']}x{row['tasks']}: bound "
+                f"{bound:.2f} s{'' if row['proven_optimal'] else ' (gap ' + format(100 * reference.gap, '.1f') + ' %)'}, "
+                f"zero-shot {row['zero_shot']:.3f}, GA {row['ga']:.3f}{extra}")
+    test_rows = [r for r in rows if not r["lab"]]
+    lab_rows = [r for r in rows if r["lab"]]
+    figures = {
+        "zero_shot": summary_of([r["zero_shot"] for r in test_rows]),
+        "finetuned": summary_of([r["finetuned"] for r in test_rows if "finetuned" in r]),
+        "ga": summary_of([r["ga"] for r in test_rows]),
+        "mappo": summary_of([r["mappo"] for r in test_rows if "mappo" in r]),
+        "ga_on_finetuned_ones": summary_of([r["ga"] for r in test_rows if "finetuned" in r]),
+        "zero_shot_on_mappo_ones": summary_of([r["zero_shot"] for r in test_rows if "mappo" in r]),
+        "lab_zero_shot": {r["scenario"]: r["zero_shot"] for r in lab_rows},
+        "lab_finetuned": {r["scenario"]: r.get("finetuned", math.inf) for r in lab_rows},
+        "decision_ms_mean": float(np.mean([r["decision_ms"] for r in rows])),
+        "proven_optimal_bounds": sum(r["proven_optimal"] for r in test_rows),
+    }
+    stored = path.with_suffix(".json")   # a shipped actor's training summary (train_generalist's generalist.json)
+    training = json.loads(stored.read_text()).get("seconds", {}) if stored.is_file() else {}
+    headline = [
+        {"figure": f"zero-shot / best bound, mean over {len(test_rows)} unseen scenarios", "unit": "",
+         "value": round(figures["zero_shot"]["mean"], 4), "goal": f"<= {GOALS['zero_shot_mean']} and <= GA"},
+        {"figure": "zero-shot / best bound, p90", "unit": "", "value": round(figures["zero_shot"]["p90"], 4), "goal": ""},
+        {"figure": "zero-shot failures (incomplete or inconsistent)", "unit": "", "value": figures["zero_shot"]["failed"],
+         "goal": "0"},
+        {"figure": "GA / best bound, mean", "unit": "", "value": round(figures["ga"]["mean"], 4), "goal": ""},
+        {"figure": f"after {args.finetune_seconds:g} s of fine-tuning / best bound, mean of {figures['finetuned']['n']}",
+         "unit": "", "value": round(figures["finetuned"]["mean"], 4), "goal": f"<= {GOALS['finetuned_mean']}"},
+        {"figure": f"per-scenario MAPPO ({args.mappo_preset}, {args.mappo_seconds:g} s) / best bound, mean of "
+                   f"{figures['mappo']['n']}", "unit": "", "value": round(figures["mappo"]["mean"], 4), "goal": ""},
+        {"figure": "lab zero-shot / optimum, worst of lab_2r/3r/4r", "unit": "",
+         "value": round(max(figures["lab_zero_shot"].values()), 4), "goal": "1.0"},
+        {"figure": "time per decision step of the team", "unit": "ms", "value": round(figures["decision_ms_mean"], 2),
+         "goal": ""},
+    ]
+    if training.get("total_s") is not None:
+        headline.append({"figure": "training time of the generalist", "unit": "s", "value": training["total_s"], "goal": ""})
+    result = {"headline": headline, "figures": figures, "policy": str(path), "generalist_training": training,
+              "settings": {k: (list(v) if isinstance(v, tuple) else (str(v) if isinstance(v, Path) else v))
+                           for k, v in vars(args).items()},
+              "rows": rows, "machine": {"cpu_count": os.cpu_count(), "python": platform.python_version()}}
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / "bench_generalise.json").write_text(json.dumps(result, indent=1, allow_nan=True))
+    for row in headline:
+        log(f"{row['figure']}: {row['value']} {row['unit']} (goal {row['goal'] or '-'})")
+    return result
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        if args.scenarios < 1:
+            raise ConfigError("--scenarios: at least 1")
+        bench(args)
+    except (ConfigError, ScenarioError, GeneratorError, RunError, PolicyFileError) as error:
+        print(f"bench_generalise: {error}", file=sys.stderr)
+        return 2
+    return 0

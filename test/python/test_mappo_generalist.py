@@ -1,0 +1,97 @@
+"""The shipped generalist (policies/generalist.pt): the name stands for the file wherever an actor
+file is taken, it schedules scenarios it never saw, and `train --init generalist` fine-tunes it
+(preset finetune, a wall-time budget) to the proven optimum of lab_2r."""
+import json
+
+import pytest
+
+from marl_mrta.apps.bench_generalise import summary_of, zero_shot
+from marl_mrta.apps.evaluate import main as evaluate_main
+from marl_mrta.apps.train import main as train_main
+from marl_mrta.baselines.reference import scenario_reference
+from marl_mrta.common.paths import package_root
+from marl_mrta.env.settings import load_task_settings
+from marl_mrta.mappo.config import load_config, resolve_preset
+from marl_mrta.mappo.policy import SetActorPolicy, actor_file_path, load_policy, read_actor_file
+from marl_mrta.model.generator import ScenarioRequest, generate_scenario
+from marl_mrta.model.scenario import load_scenario
+
+SCENARIOS = package_root() / "scenarios"
+
+
+def optimum(name):
+    task = load_task_settings()
+    plan, _ = scenario_reference(load_scenario(SCENARIOS / f"{name}.xml"), task.min_step, goal_timeout=task.goal_timeout)
+    assert plan.proven_optimal
+    return plan.makespan
+
+
+def test_the_name_generalist_stands_for_the_shipped_set_actor():
+    path = actor_file_path("generalist")
+    assert path == package_root() / "policies" / "generalist.pt" and path.is_file()
+    assert actor_file_path("results/actor.pt").name == "actor.pt"      # any other reference is a path
+    _, data = read_actor_file("generalist")
+    assert isinstance(load_policy("generalist"), SetActorPolicy)
+    config = load_config(resolve_preset("finetune"))       # the preset fine-tunes exactly this network
+    assert (data["hidden_size"], data["heads"], data["layers"]) == (config.hidden_size, config.set_heads, config.set_layers)
+    assert config.init_actor == "generalist" and config.max_wall_seconds == 60.0
+
+
+@pytest.mark.parametrize("name", ["lab_2r", "lab_4r"])
+def test_zero_shot_on_the_lab_is_the_optimum(name):
+    """Without training on the scenario (the lab scenarios are among the generalist's training
+    scenarios), its greedy schedule is the proven optimum. lab_3r: 1.024 (docs/mappo.md)."""
+    shot = zero_shot(load_policy("generalist"), load_scenario(SCENARIOS / f"{name}.xml"), "finished")
+    assert shot["makespan"] == pytest.approx(optimum(name), abs=1e-6)
+
+
+def test_zero_shot_on_generated_scenarios_it_never_saw(tmp_path):
+    """Scenarios of a seed no training used, 2-4 robots, 4-12 tasks, every layout: every greedy
+    episode finishes every task in precedence order."""
+    policy = load_policy("generalist")
+    makespans = []
+    for k, (robots, tasks, layout) in enumerate([(2, 6, "rooms"), (3, 10, "corridors"), (4, 12, "pillars"),
+                                                 (3, 8, "lab")]):
+        request = ScenarioRequest(n_robots=robots, n_tasks=tasks, layout=layout, name=f"unseen_{k}")
+        makespans.append(zero_shot(policy, generate_scenario(request, 90_000 + k, tmp_path), "finished")["makespan"])
+    assert summary_of(makespans)["failed"] == 0, makespans
+
+
+def test_evaluate_and_train_take_the_name(tmp_path, capsys):
+    out = tmp_path / "e.json"
+    assert evaluate_main(["--method", "policy", "--policy", "generalist", "--scenario", str(SCENARIOS / "lab_4r.xml"),
+                          "--mask", "finished", "--episodes", "1", "--no-exact", "--quiet", "--out", str(out)]) == 0
+    summary = json.loads(out.read_text())["results"][0]["summary"]
+    assert summary["method"] == "policy" and summary["n_robots"] == 4
+    assert evaluate_main(["--method", "policy", "--policy", "generalists", "--episodes", "1", "--no-exact", "--quiet",
+                          "--out", str(out)]) == 2
+    assert "generalists: no such file" in capsys.readouterr().err
+
+
+def test_fine_tuning_the_generalist_reaches_the_optimum_on_lab_2r(tmp_path, capsys):
+    """train --init generalist (the finetune preset, here 10 s of wall time): a new run from the
+    shipped weights whose kept actor schedules lab_2r at its proven optimum."""
+    run = tmp_path / "run"
+    assert train_main(["--scenario", str(SCENARIOS / "lab_2r.xml"), "--init", "generalist", "--seed", "0",
+                       "--set", "max_wall_seconds=10", "--out", str(run)]) == 0
+    out = capsys.readouterr().out
+    assert "with preset finetune" in out and "starting from generalist" in out
+    history = json.loads((run / "history.json").read_text())
+    assert history["evaluations"] and history["evaluations"][-1]["wall_time"] >= 10.0
+    shot = zero_shot(load_policy(run / "actor.pt"), load_scenario(SCENARIOS / "lab_2r.xml"), "finished")
+    assert shot["makespan"] == pytest.approx(optimum("lab_2r"), abs=1e-6)
+
+
+def test_bad_sizes_and_policies_end_the_commands_with_one_line(tmp_path, capsys):
+    from marl_mrta.apps.bench_generalise import main as bench_main
+    from marl_mrta.apps.train_generalist import main as generalist_main
+    for sizes, message in [(["--robots", "5", "3"], "--robots: 5 3 is not a range within 2..16"),
+                           (["--tasks", "2", "8"], "--tasks: 2 8 is not a range within 4..32")]:
+        assert generalist_main(["--out", str(tmp_path / "g")] + sizes) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and message in err, err
+    (tmp_path / "junk.pt").write_text("not an actor")
+    assert bench_main(["--policy", str(tmp_path / "junk.pt"), "--out", str(tmp_path), "--scenarios", "1"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "junk.pt: not a readable actor file" in err, err
+    assert not (tmp_path / "bench_generalise.json").exists()
