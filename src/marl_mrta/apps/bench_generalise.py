@@ -26,22 +26,18 @@ import os
 import platform
 import sys
 import tempfile
-import time
 from pathlib import Path
 from typing import Any, Callable, Dict, List, Optional, Sequence
 
 import numpy as np
 
-from marl_mrta.apps.train_generalist import LAB_SCENARIOS, generated_scenarios
+from marl_mrta.apps.train_generalist import LAB_SCENARIOS, generated_scenarios, greedy_run as zero_shot
 from marl_mrta.baselines.ga import solve_ga
 from marl_mrta.baselines.reference import scheduling_instance, solve_reference
 from marl_mrta.baselines.settings import load_baseline_settings
 from marl_mrta.common.config import ConfigError
 from marl_mrta.common.paths import package_root
-from marl_mrta.env.factory import make_env
 from marl_mrta.env.settings import load_task_settings
-from marl_mrta.evaluation.loop import run_episode
-from marl_mrta.evaluation.policies import LearnedPolicy
 from marl_mrta.evaluation.training import on_new_env
 from marl_mrta.mappo.config import load_config, resolve_preset
 from marl_mrta.mappo.policy import PolicyFileError, SetActorPolicy, load_policy, read_actor_file
@@ -52,31 +48,6 @@ from marl_mrta.model.scenario import Scenario, ScenarioError, load_scenario
 
 #: Goals of the issue, by figure.
 GOALS = {"zero_shot_mean": 1.10, "finetuned_mean": 1.03}
-
-
-def usable(record) -> bool:
-    return bool(record.complete and record.logic_consistent)
-
-
-def zero_shot(policy: SetActorPolicy, scenario: Scenario, mask: str) -> Dict[str, float]:
-    """The policy's greedy episode (embedded, ideal): makespan (inf unless complete and
-    consistent) and the wall time of its decisions, per decision step of the team."""
-    env = make_env(scenario, "embedded", mask=mask)
-    learned = LearnedPolicy(policy.for_scenario(scenario), env.n_agents)
-    timed = {"seconds": 0.0, "steps": 0}
-    act = learned.act
-
-    def timed_act(output):
-        started = time.perf_counter()
-        actions = act(output)
-        timed["seconds"] += time.perf_counter() - started
-        timed["steps"] += 1
-        return actions
-
-    learned.act = timed_act
-    record = run_episode(env, learned, seed=0)
-    return {"makespan": record.makespan if usable(record) else math.inf,
-            "decision_ms": 1000.0 * timed["seconds"] / max(1, timed["steps"])}
 
 
 def trained(scenario: Scenario, preset: str, seconds: float, seed: int, init: str, work: Path) -> Dict[str, float]:

@@ -123,14 +123,31 @@ def plans_for(scenarios: Sequence[Scenario], cache: Path, log: Callable[[str], N
     return plans
 
 
-def greedy_ratio(policy: SetActorPolicy, scenario: Scenario, reference: float, mask: str) -> float:
-    """Greedy makespan of the policy on the scenario (embedded, ideal) ÷ `reference`; inf when the
-    episode does not finish every task in precedence order."""
+def greedy_run(policy: SetActorPolicy, scenario: Scenario, mask: str) -> Dict[str, float]:
+    """The policy's greedy episode on the scenario (embedded, ideal): its makespan (inf when it
+    does not finish every task in precedence order) and the wall time of its decisions in ms per
+    decision step of the team."""
     env = make_env(scenario, "embedded", mask=mask)
-    record = run_episode(env, LearnedPolicy(policy.for_scenario(scenario), env.n_agents), seed=0)
-    if not (record.complete and record.logic_consistent):
-        return math.inf
-    return record.makespan / reference
+    learned = LearnedPolicy(policy.for_scenario(scenario), env.n_agents)
+    timed = {"seconds": 0.0, "steps": 0}
+    act = learned.act
+
+    def timed_act(output):
+        started = time.perf_counter()
+        actions = act(output)
+        timed["seconds"] += time.perf_counter() - started
+        timed["steps"] += 1
+        return actions
+
+    learned.act = timed_act
+    record = run_episode(env, learned, seed=0)
+    return {"makespan": record.makespan if record.complete and record.logic_consistent else math.inf,
+            "decision_ms": 1000.0 * timed["seconds"] / max(1, timed["steps"])}
+
+
+def greedy_ratio(policy: SetActorPolicy, scenario: Scenario, reference: float, mask: str) -> float:
+    """Greedy makespan of the policy on the scenario ÷ `reference` (inf: a failed episode)."""
+    return greedy_run(policy, scenario, mask)["makespan"] / reference
 
 
 def check(policy: SetActorPolicy, holdout: Sequence[Scenario], references: Sequence[float], mask: str) -> Dict[str, float]:
