@@ -25,6 +25,11 @@ constexpr double kLockstepResendPeriod = 0.5;
 constexpr double kMaxPacingLag = 1.0;
 // Waiting this long [wall s] for lock-step answers is worth a warning.
 constexpr double kLockstepWarnAfter = 5.0;
+// While paused in lock-step, the current tick is re-sent this often [wall s] even when every
+// controller has answered it: the task manager, in another process, waits for the answers too
+// and with 16 robots was seen to miss some, then wait for them in vain. Controllers answer a
+// re-sent tick again, computing nothing, so the episode does not change.
+constexpr double kPausedRepeatPeriod = 1.0;
 
 }  // namespace
 
@@ -192,8 +197,11 @@ void SimulatorRos::publishState(const StepReport& report, bool initial) {
   publishShared(tick_pub_, last_tick_);
 }
 
-bool SimulatorRos::resendUnansweredTick(const ros::WallTime& now) {
-  if (lockstep_->answered(world_->tick()) || (now - tick_sent_).toSec() <= kLockstepResendPeriod) return false;
+bool SimulatorRos::resendTick(const ros::WallTime& now) {
+  const double period = !lockstep_->answered(world_->tick())  ? kLockstepResendPeriod
+                        : paused_ && config_.lockstep          ? kPausedRepeatPeriod
+                                                               : -1.0;
+  if (period < 0.0 || (now - tick_sent_).toSec() <= period) return false;
   publishShared(tick_pub_, last_tick_);
   tick_sent_ = now;
   return true;
@@ -222,12 +230,12 @@ int SimulatorRos::run() {
     }
     const ros::WallTime now = ros::WallTime::now();
     if (paused_) {
-      resendUnansweredTick(now);  // a controller that joined while paused answers the current tick
+      resendTick(now);  // a controller that joined while paused answers the current tick
       queue.callAvailable(ros::WallDuration(0.05));
       continue;
     }
     if (!lockstep_->answered(world_->tick())) {
-      if (resendUnansweredTick(now) && (now - tick_stepped).toSec() > kLockstepWarnAfter) warnLockstepWait();
+      if (resendTick(now) && (now - tick_stepped).toSec() > kLockstepWarnAfter) warnLockstepWait();
       queue.callAvailable(ros::WallDuration(0.01));  // returns as soon as an answer arrives
       pacer_->restart();
       continue;

@@ -71,8 +71,9 @@ class SimulatorRos {
   // First tick stamped at or after `time` (0 for time 0).
   uint64_t firstTickAtOrAfter(const ros::Time& time) const;
   // Re-sends the current tick when a lock-step answer to it is missing and none was sent for a
-  // while (controllers that subscribed after it went out). Returns whether it did.
-  bool resendUnansweredTick(const ros::WallTime& now);
+  // while (controllers that subscribed after it went out), and now and then while paused in
+  // lock-step (observers of the answers that lost some). Returns whether it did.
+  bool resendTick(const ros::WallTime& now);
   void warnLockstepWait() const;
   void writeStats() const;
 
