@@ -10,14 +10,24 @@ two-predecessor joins, 3 s service; written to a temporary directory), 8x16 and 
   the reference's 10 s per model for `exact`): makespan, its ratio to the best known makespan
   and to the lower bound of the 60 s run, completion, peak memory (the process's maximum
   resident set, os.wait4).
-Writes <out>/bench_scale.json ({"headline": [...], ...}, the format tools/bench_table.py prints);
-the MAPPO figures and the ROS real-time factors of each size have their keys, filled elsewhere.
+- MAPPO (part `mappo`): the shipped generalist fine-tuned on the scenario (`train --init
+  generalist`, a process of its own) for --mappo-seconds of training wall time: the best
+  logic-consistent greedy makespan and its ratios, and the training time until it is within 5 %
+  of the best known makespan; the generalist's own training time is given beside it, since a
+  budget of training counts both;
+- the ROS simulation (part `ros`): the reference's plan driven once through `evaluate.launch`
+  (lock-step, built-in navigation, nodelets) on a master of its own: makespan, completion, logic
+  consistency, collisions and the real-time factor of the episode (simulated ÷ wall seconds).
+Writes <out>/bench_scale.json ({"headline": [...], ...}, the format tools/bench_table.py prints).
+--parts runs some parts only; the sizes and parts not run keep their figures from the file
+already there.
 """
 from __future__ import annotations
 
 import argparse
 import json
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -26,6 +36,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any, Dict, List, Optional, Sequence, Tuple
 
+from marl_mrta.apps.bench_task_ros import run_ros_evaluation
 from marl_mrta.baselines.reference import scheduling_instance, solve_reference
 from marl_mrta.baselines.settings import load_baseline_settings
 from marl_mrta.common.paths import package_root
@@ -37,6 +48,10 @@ METHODS = ("random", "ga", "auction", "exact")
 CPSAT_LIMITS = (10.0, 60.0)
 EXACT_LIMIT = 10.0
 MEMORY_GOAL_MB = 4096.0
+PARTS = ("solvers", "mappo", "ros")
+MAPPO_WITHIN = 1.05          # "training time to within 5 % of the best known makespan"
+MAPPO_SECONDS = 300.0        # default fine-tuning wall time per size
+ROS_TIMEOUT = 1800.0         # wall s for one evaluate.launch run
 
 
 def sizes(work: Path) -> List[Tuple[str, Path]]:
@@ -83,8 +98,9 @@ def evaluate_process(scenario: Path, method: str, out: Path) -> Dict[str, Any]:
             "peak_memory_mb": usage.ru_maxrss / 1024.0, "seconds": seconds}
 
 
-def bench_size(label: str, scenario: Path, work: Path) -> Dict[str, Any]:
-    print(f"bench_scale: {label} ({scenario.name}) ...", file=sys.stderr)
+def solver_figures(label: str, scenario: Path, work: Path) -> Dict[str, Any]:
+    """Part `solvers`: the reference, CP-SAT alone and every method of `evaluate`."""
+    print(f"bench_scale: {label} ({scenario.name}): solvers and baselines ...", file=sys.stderr)
     as_evaluated = reference_run(scenario, EXACT_LIMIT, cpsat_only=False)
     cpsat = {f"{limit:g}": reference_run(scenario, limit, cpsat_only=True) for limit in CPSAT_LIMITS}
     best = min([as_evaluated["best_makespan"]] + [c["best_makespan"] for c in cpsat.values()])
@@ -99,8 +115,86 @@ def bench_size(label: str, scenario: Path, work: Path) -> Dict[str, Any]:
     return {"size": label, "scenario": str(scenario.relative_to(package_root())) if package_root() in scenario.parents
             else scenario.name, "robots": env.n_agents, "tasks": env.n_tasks,
             "reference": as_evaluated, "cpsat": cpsat, "best_makespan": best, "lower_bound": lower,
-            "gap": (best - lower) / best, "methods": methods,
-            "mappo": None, "ros_real_time_factor": None}
+            "gap": (best - lower) / best, "methods": methods}
+
+
+def generalist_training_seconds() -> Optional[float]:
+    """The shipped generalist's training time (policies/generalist.json), or None."""
+    summary = package_root() / "policies" / "generalist.json"
+    try:
+        return float(json.loads(summary.read_text())["seconds"]["total_s"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
+def mappo_figures(label: str, scenario: Path, best: float, lower: float, seconds: float, work: Path) -> Dict[str, Any]:
+    """Part `mappo`: the generalist fine-tuned on the scenario for `seconds` of training wall time."""
+    print(f"bench_scale: {label} ({scenario.name}): MAPPO, {seconds:g} s of fine-tuning ...", file=sys.stderr)
+    out = work / f"mappo_{label}"
+    argv = [sys.executable, str(package_root() / "scripts" / "train"), "--scenario", str(scenario), "--init",
+            "generalist", "--set", f"max_wall_seconds={seconds:g}", "--set", "total_env_steps=100000000",
+            "--out", str(out)]
+    process = subprocess.run(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    if process.returncode != 0:
+        raise RuntimeError(f"train on {scenario.name} failed: {process.stderr.strip().splitlines()[-1:]}")
+    evaluations = json.loads((out / "history.json").read_text())["evaluations"]
+    best_eval = min(evaluations, key=lambda e: e["consistent_makespan"])
+    within = [e for e in evaluations if e["consistent_makespan"] <= MAPPO_WITHIN * best]
+    makespan = best_eval["consistent_makespan"]
+    return {"start": "generalist", "generalist_training_s": generalist_training_seconds(),
+            "fine_tuning_s": evaluations[-1]["wall_time"], "updates": evaluations[-1]["update"],
+            "env_steps": evaluations[-1]["env_steps"], "first_greedy_makespan": evaluations[0]["consistent_makespan"],
+            "greedy_makespan": makespan, "greedy_at_s": best_eval["wall_time"],
+            "ratio_to_best": makespan / best, "ratio_to_lower_bound": makespan / lower if lower > 0 else None,
+            "time_to_within_5pct_s": within[0]["wall_time"] if within else None,
+            "command": f"train --scenario {scenario.name} --init generalist --set max_wall_seconds={seconds:g}"}
+
+
+def ros_figures(label: str, scenario: Path, work: Path) -> Dict[str, Any]:
+    """Part `ros`: the reference's plan once through the ROS simulation in lock-step."""
+    print(f"bench_scale: {label} ({scenario.name}): the exact plan in the ROS simulation ...", file=sys.stderr)
+    out = work / f"ros_{label}.json"
+    wall = run_ros_evaluation(scenario, 1, out, 0, ROS_TIMEOUT, methods=("exact",))
+    result = json.loads(out.read_text())["results"][0]
+    summary = result["summary"]
+    simulated = sum(e["makespan"] for e in result["episodes"])
+    return {"makespan": summary["makespan_mean"], "complete_pct": summary["complete_pct"],
+            "logic_consistent_pct": summary["logic_consistent_pct"],
+            "collisions_per_episode": summary["collisions_per_episode"], "episode_wall_s": result["seconds"],
+            "real_time_factor": simulated / result["seconds"], "launch_wall_s": wall}
+
+
+def bench_size(label: str, scenario: Path, work: Path, parts: Sequence[str], mappo_seconds: float,
+               previous: Optional[Dict[str, Any]], logs: Path) -> Dict[str, Any]:
+    """One size's figures: the parts asked for, the others as `previous` had them; the log of a
+    failed ROS run is kept in `logs`."""
+    result: Dict[str, Any] = dict(previous or {})
+    result.setdefault("mappo", None)
+    result.setdefault("ros", None)
+    if "solvers" in parts or "best_makespan" not in result:
+        result.update(solver_figures(label, scenario, work))
+    # A part that fails is recorded as failed, with its one line; the other figures stand.
+    if "mappo" in parts:
+        try:
+            result["mappo"] = mappo_figures(label, scenario, result["best_makespan"], result["lower_bound"],
+                                            mappo_seconds, work)
+        except RuntimeError as error:
+            result["mappo"] = {"error": str(error)}
+    if "ros" in parts:
+        try:
+            ros = ros_figures(label, scenario, work)
+            ros["ratio_to_best_plan"] = ros["makespan"] / result["best_makespan"]
+            result["ros"] = ros
+        except RuntimeError as error:
+            # The launch's log outlives the temporary directory beside the result file.
+            log = work / f"ros_{label}.log"
+            kept = logs / f"bench_scale_ros_{label}.log"
+            if log.is_file():
+                logs.mkdir(parents=True, exist_ok=True)
+                shutil.copyfile(log, kept)
+            result["ros"] = {"error": str(error).replace(str(log), str(kept))}
+    result.pop("ros_real_time_factor", None)   # the key of files before the `ros` part
+    return result
 
 
 def headline(results: Sequence[Dict[str, Any]]) -> List[Dict[str, Any]]:
@@ -121,12 +215,33 @@ def headline(results: Sequence[Dict[str, Any]]) -> List[Dict[str, Any]]:
                      "value": round(run["wall_seconds"], 1), "goal": "<= 120"})
     peak = max(m["peak_memory_mb"] for r in results for m in r["methods"].values())
     rows.append({"figure": "peak memory of any evaluate run", "unit": "MB", "value": round(peak), "goal": f"< {MEMORY_GOAL_MB:.0f}"})
+    mappo_goals = {"8x16": "<= 1.05 in 1 h", "16x32": "<= 1.10 in 1 h"}
     for r in results:
         rows.append({"figure": f"{r['size']} gap of the best known to the lower bound", "unit": "%",
                      "value": round(100 * r["gap"], 1), "goal": ""})
         for method in ("ga", "auction", "random"):
             rows.append({"figure": f"{r['size']} {method} / best known", "unit": "",
                          "value": round(r["methods"][method]["ratio_to_best"], 3), "goal": ""})
+        for part in ("mappo", "ros"):
+            if r.get(part) and "error" in r[part]:
+                rows.append({"figure": f"{r['size']} {part}", "unit": "", "value": "failed", "goal": r[part]["error"]})
+        mappo = r.get("mappo")
+        if mappo and "error" not in mappo:
+            before = mappo["generalist_training_s"]
+            rows.append({"figure": f"{r['size']} MAPPO (generalist + {mappo['fine_tuning_s']:.0f} s of fine-tuning"
+                                   f"{f', {before:.0f} s before' if before else ''}) / lower bound", "unit": "",
+                         "value": round(mappo["ratio_to_lower_bound"], 3), "goal": mappo_goals.get(r["size"], "")})
+            to_5 = mappo["time_to_within_5pct_s"]
+            rows.append({"figure": f"{r['size']} MAPPO fine-tuning to within 5 % of the best known",
+                         "unit": "s" if to_5 is not None else "",
+                         "value": round(to_5, 1) if to_5 is not None else "not reached", "goal": ""})
+        ros = r.get("ros")
+        if ros and "error" not in ros:
+            rows.append({"figure": f"{r['size']} ROS lock-step, exact plan: real-time factor", "unit": "x",
+                         "value": round(ros["real_time_factor"], 1), "goal": ""})
+            rows.append({"figure": f"{r['size']} ROS lock-step, exact plan: makespan / planned (logic-consistent %)",
+                         "unit": "", "value": f"{ros['ratio_to_best_plan']:.3f} ({ros['logic_consistent_pct']:.0f} %)",
+                         "goal": ""})
     return rows
 
 
@@ -134,7 +249,26 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     parser = argparse.ArgumentParser(prog="bench_scale", description=__doc__.split("\n\n")[0])
     parser.add_argument("--out", default=str(package_root() / "results"), help="output directory (default results/)")
     parser.add_argument("--sizes", default=None, help="comma-separated subset of 2x8,4x8,6x16,8x16,16x32 (default all)")
+    parser.add_argument("--parts", default=",".join(PARTS),
+                        help=f"comma-separated subset of {','.join(PARTS)} (default all; ros needs a sourced ROS "
+                             "workspace); the others keep their figures from the existing file")
+    parser.add_argument("--mappo-seconds", type=float, default=MAPPO_SECONDS,
+                        help=f"fine-tuning wall time per size for part mappo (default {MAPPO_SECONDS:g})")
     args = parser.parse_args(argv)
+    parts = args.parts.split(",")
+    unknown_parts = sorted(set(parts) - set(PARTS))
+    if unknown_parts or args.mappo_seconds <= 0:
+        problem = f"--parts: unknown {', '.join(unknown_parts)}" if unknown_parts else "--mappo-seconds: must be > 0"
+        print(f"bench_scale: {problem}", file=sys.stderr)
+        return 2
+    out = Path(args.out)
+    path = out / "bench_scale.json"
+    previous: Dict[str, Dict[str, Any]] = {}
+    if path.is_file():
+        try:
+            previous = {r["size"]: r for r in json.loads(path.read_text())["sizes"]}
+        except (ValueError, KeyError, TypeError):
+            print(f"bench_scale: {path}: not a bench_scale result; every part is run", file=sys.stderr)
     with tempfile.TemporaryDirectory(prefix="bench_scale_") as tmp:
         work = Path(tmp)
         chosen = sizes(work)
@@ -144,16 +278,18 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             if unknown:
                 print(f"bench_scale: --sizes: unknown {', '.join(unknown)}", file=sys.stderr)
                 return 2
-            chosen = [(label, path) for label, path in chosen if label in wanted]
-        results = [bench_size(label, path, work) for label, path in chosen]
+        else:
+            wanted = [label for label, _ in chosen]
+        results = [bench_size(label, scenario, work, parts, args.mappo_seconds, previous.get(label), out)
+                   if label in wanted else previous[label]
+                   for label, scenario in chosen if label in wanted or label in previous]
     rows = headline(results)
-    out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    path = out / "bench_scale.json"
     tmp_path = path.with_name(path.name + ".tmp")
     tmp_path.write_text(json.dumps({"headline": rows, "sizes": results,
                                     "settings": {"cpsat_limits_per_model": CPSAT_LIMITS, "exact_limit": EXACT_LIMIT,
-                                                 "cpsat_workers": load_baseline_settings().cpsat.workers},
+                                                 "cpsat_workers": load_baseline_settings().cpsat.workers,
+                                                 "mappo_seconds": args.mappo_seconds},
                                     "cpu_count": os.cpu_count()}, indent=1))
     tmp_path.replace(path)
     width = max(len(r["figure"]) for r in rows)

@@ -39,13 +39,14 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
-def run_ros_evaluation(scenario: Path, episodes: int, out: Path, seed: int, timeout: float) -> float:
+def run_ros_evaluation(scenario: Path, episodes: int, out: Path, seed: int, timeout: float,
+                       methods: Sequence[str] = METHODS) -> float:
     """evaluate.launch on its own master; returns its wall time. Raises RuntimeError on failure."""
     port = free_port()
     env = dict(os.environ, ROS_MASTER_URI=f"http://localhost:{port}")
     command = ["roslaunch", "-p", str(port), "marl_mrta", "evaluate.launch", f"scenario:={scenario}",
-               f"method:={','.join(METHODS)}", f"episodes:={episodes}", f"seed:={seed}", f"out:={out}"]
-    print(f"bench_task_ros: {' '.join(command)}", file=sys.stderr, flush=True)
+               f"method:={','.join(methods)}", f"episodes:={episodes}", f"seed:={seed}", f"out:={out}"]
+    print(f"{Path(sys.argv[0]).name}: {' '.join(command)}", file=sys.stderr, flush=True)
     started = time.monotonic()
     log = out.with_suffix(".log")
     with open(log, "w") as stream:

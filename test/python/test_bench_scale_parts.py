@@ -1,0 +1,42 @@
+"""bench_scale's parts: a run of some parts on some sizes keeps every other figure of the file
+already there, fills the MAPPO figures from a real fine-tuning run, and refuses a bad option with
+one line."""
+import json
+
+from marl_mrta.apps.bench_scale import main as bench_scale_main
+
+#: A result of part `solvers` for the smallest size, as an earlier run wrote it.
+SOLVED_2X8 = {
+    "size": "2x8", "scenario": "scenarios/lab_2r.xml", "robots": 2, "tasks": 8,
+    "reference": {"time_to_optimum": 0.04, "wall_seconds": 0.04}, "cpsat": {"10": {"gap": 0.0}, "60": {"gap": 0.0}},
+    "best_makespan": 46.127, "lower_bound": 46.127, "gap": 0.0,
+    "methods": {m: {"makespan": 46.127, "ratio_to_best": 1.0, "peak_memory_mb": 100.0}
+                for m in ("random", "ga", "auction", "exact")},
+    "mappo": None, "ros": None,
+}
+
+
+def test_a_bad_part_is_one_line_and_exit_2(tmp_path, capsys):
+    assert bench_scale_main(["--out", str(tmp_path), "--parts", "solvers,bogus"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["bench_scale: --parts: unknown bogus"]
+    assert not (tmp_path / "bench_scale.json").exists()
+
+
+def test_part_mappo_fine_tunes_and_keeps_the_other_figures(tmp_path):
+    kept_4x8 = dict(SOLVED_2X8, size="4x8", best_makespan=24.815, lower_bound=24.815)
+    (tmp_path / "bench_scale.json").write_text(json.dumps({"headline": [], "sizes": [SOLVED_2X8, kept_4x8]}))
+    assert bench_scale_main(["--out", str(tmp_path), "--sizes", "2x8", "--parts", "mappo", "--mappo-seconds", "3"]) == 0
+    document = json.loads((tmp_path / "bench_scale.json").read_text())
+    by_size = {r["size"]: r for r in document["sizes"]}
+    assert by_size["4x8"] == kept_4x8                          # a size not asked for: as it was
+    two = by_size["2x8"]
+    assert two["methods"] == SOLVED_2X8["methods"] and two["ros"] is None   # parts not asked for: as they were
+    mappo = two["mappo"]
+    # The generalist is at lab_2r's optimum from the start (test_mappo_generalist), and keeps it.
+    assert abs(mappo["greedy_makespan"] - 46.127) < 0.01 and abs(mappo["ratio_to_best"] - 1.0) < 1e-3
+    assert mappo["time_to_within_5pct_s"] is not None and 0 < mappo["time_to_within_5pct_s"] <= mappo["fine_tuning_s"]
+    assert mappo["fine_tuning_s"] >= 3.0 and mappo["updates"] >= 1
+    figures = {row["figure"] for row in document["headline"]}
+    assert any(f.startswith("2x8 MAPPO (generalist + ") for f in figures)
+    assert "4x8 ga / best known" in figures
