@@ -156,7 +156,7 @@ std::string benchMap(const MoveBaseConfig& config, const std::string& config_dir
   for (int i = 0; i < 40 && cycles < 400; ++i) {
     const PlanResult plan = core.makePlan(free_poses[pick(rng)], free_poses[pick(rng)], 0.0);
     if (!plan.ok() || plan.path.size() < 20) continue;
-    controller.setPlan(plan.path);
+    controller.setPlan(plan.path, LocalController::PlanUpdate::kNewRoute);
     for (size_t k = 0; k + 1 < plan.path.size() && cycles < 400; k += 8, ++cycles) {
       Pose2D pose = plan.path[k];
       pose.yaw = std::atan2(plan.path[k + 1].y - pose.y, plan.path[k + 1].x - pose.x);

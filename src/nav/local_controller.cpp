@@ -39,10 +39,10 @@ ControlResult checkedCommand(DwaPlanner& planner, const Pose2D& pose, const Velo
 
 LocalController::LocalController(const DwaConfig& config) : planner_(config) {}
 
-void LocalController::setPlan(const std::vector<Pose2D>& global_plan) {
+void LocalController::setPlan(const std::vector<Pose2D>& global_plan, PlanUpdate update) {
   global_plan_ = global_plan;
   xy_tolerance_latch_ = false;
-  planner_.resetOscillationFlags();
+  if (update == PlanUpdate::kNewRoute) planner_.resetOscillationFlags();
 }
 
 void LocalController::startGoal() {

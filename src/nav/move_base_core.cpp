@@ -178,7 +178,9 @@ void MoveBaseCore::runPlanner(const CycleInput& in, CycleOutput& out) {
     planning_retries_ = 0;
     out.new_plan = true;
     out.plan = plan_;
-    controller_.setPlan(plan_);
+    // Planning state: after a goal or a recovery behavior; controlling: periodic re-planning.
+    controller_.setPlan(plan_, state_ == MoveBaseState::kPlanning ? LocalController::PlanUpdate::kNewRoute
+                                                                   : LocalController::PlanUpdate::kReplan);
     if (trigger_ == Trigger::kPlanning) recovery_index_ = 0;
     state_ = MoveBaseState::kControlling;
     return;

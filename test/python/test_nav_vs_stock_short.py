@@ -3,9 +3,8 @@ move_base against stock move_base, one robot at rtf 1 in the simulator, on the l
 legs) and on the pillars map (two drawn legs between the columns). The built-in move_base must
 reach every goal stock reaches, each leg within MAX_RATIO_GOAL x stock's sim time (the
 oscillation the harness was built to find takes several times as long). The doors map's pocket
-exit, where the built-in's earlier turn can strand it (docs/navigation.md, "Built-in against
-stock"), is left to the benchmark until that is mended (it missed there in one run and not in
-another). Skips in one line where the stock stack is not built (make stock-nav)."""
+exit is checked in lock-step, without stock, by test_nav_doors_pocket.py. Skips in one line
+where the stock stack is not built (make stock-nav)."""
 import argparse
 
 import pytest

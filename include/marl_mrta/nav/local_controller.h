@@ -38,8 +38,15 @@ class LocalController {
   const DwaConfig& config() const { return planner_.config(); }
   DwaPlanner& planner() { return planner_; }
 
-  // A new global plan (global frame). Resets the goal latch and the oscillation flags.
-  void setPlan(const std::vector<Pose2D>& global_plan);
+  // Where a global plan comes from: the first plan after a goal or a recovery behavior
+  // (kNewRoute), or move_base's periodic re-planning while it follows one (kReplan).
+  enum class PlanUpdate { kNewRoute, kReplan };
+  // A new global plan (global frame). Resets the goal latch; a new route also resets DWA's
+  // oscillation flags. dwa_local_planner resets them with every plan. Here a re-plan keeps them:
+  // this move_base re-plans in step with its control cycles (every second cycle at TurtleBot3's
+  // 5 Hz planner and 10 Hz controller), so a forward/backward dither of two cycles had its flags
+  // cleared every time and never ended (docs/navigation.md, "Built-in against stock").
+  void setPlan(const std::vector<Pose2D>& global_plan, PlanUpdate update);
   // A new goal: forget the stop-and-rotate phase of the previous one.
   void startGoal();
   bool hasPlan() const { return !global_plan_.empty(); }

@@ -140,14 +140,17 @@ def free_port() -> int:
 
 
 def run_stack(stack: str, map_path: Path, legs: Sequence[Leg], repeats: int, localization: str, noise_profile: str,
-              rtf: float, goal_timeout: float, workdir: str, tag: str) -> Tuple[List[LegRecord], str]:
+              rtf: float, goal_timeout: float, workdir: str, tag: str,
+              lockstep: bool = False) -> Tuple[List[LegRecord], str]:
     """One launch of nav_legs.launch: every leg `repeats` times in turn. Returns the records
-    (LegRecord.index = the leg's index) and an error ('' when every drive ran)."""
+    (LegRecord.index = the leg's index) and an error ('' when every drive ran). `lockstep` (the
+    built-in stack only; with rtf 0): a deterministic screening run, as fast as the machine goes."""
     result_file = os.path.join(workdir, f"{tag}_{stack}.json")
     drives = [leg.as_list() for _ in range(repeats) for leg in legs]
     command = ["roslaunch", "-p", "PORT", "marl_mrta", "nav_legs.launch", f"nav:={stack}", f"map:={map_path}",
                f"legs:={json.dumps(drives)}", f"result_file:={result_file}", f"localization:={localization}",
-               f"noise_profile:={noise_profile}", f"rtf:={rtf:g}", f"goal_timeout:={goal_timeout:g}"]
+               f"noise_profile:={noise_profile}", f"rtf:={rtf:g}", f"goal_timeout:={goal_timeout:g}",
+               f"lockstep:={str(lockstep).lower()}"]
     wall_limit = LAUNCH_OVERHEAD + len(drives) * (goal_timeout + 15.0) / max(rtf, 0.1)
     log_path = os.path.join(workdir, f"{tag}_{stack}.log")
     for attempt in range(1 + START_RETRIES):

@@ -117,7 +117,7 @@ TEST(Dwa, CommandsRespectLimitsWhileDriving) {
   std::vector<Pose2D> plan = straightPlan({0.5, 0.5, 0}, {0.5, 3.0, 0});
   const std::vector<Pose2D> second = straightPlan({0.5, 3.0, 0}, {3.0, 3.0, 0});
   plan.insert(plan.end(), second.begin() + 1, second.end());
-  controller.setPlan(plan);
+  controller.setPlan(plan, LocalController::PlanUpdate::kNewRoute);
   Robot robot{{0.5, 0.5, M_PI / 2}, {}};
   const LocalPlannerLimits& l = config.limits;
   int commands = 0;
@@ -148,7 +148,7 @@ TEST(Dwa, StopsBeforeAWallStraightAhead) {
   auto costmap = costmapOf(m);
   const DwaConfig config = burgerDwa();
   LocalController controller(config);
-  controller.setPlan(straightPlan({0.5, 1.5, 0}, {4.5, 1.5, 0}));
+  controller.setPlan(straightPlan({0.5, 1.5, 0}, {4.5, 1.5, 0}), LocalController::PlanUpdate::kNewRoute);
   Robot robot{{1.2, 1.5, 0.0}, {0.22, 0.0, 0.0}};  // at full speed, 1.3 m from the wall
   double max_x = robot.pose.x;
   for (int step = 0; step < 200; ++step) {
@@ -168,7 +168,7 @@ TEST(Dwa, NeverDrivesIntoAnObstacleOnThePath) {
   auto costmap = costmapOf(m);
   const DwaConfig config = burgerDwa();
   LocalController controller(config);
-  controller.setPlan(straightPlan({0.5, 1.5, 0}, {4.5, 1.5, 0}));
+  controller.setPlan(straightPlan({0.5, 1.5, 0}, {4.5, 1.5, 0}), LocalController::PlanUpdate::kNewRoute);
   Robot robot{{0.5, 1.5, 0.0}, {}};
   for (int step = 0; step < 300; ++step) {
     const ControlResult r =
@@ -241,7 +241,7 @@ TEST(Dwa, ReachesGoalPositionAndYawWithinTolerance) {
   const DwaConfig config = burgerDwa();
   LocalController controller(config);
   const Pose2D goal{2.5, 1.8, M_PI / 2};
-  controller.setPlan(straightPlan({1.0, 1.0, 0}, goal));
+  controller.setPlan(straightPlan({1.0, 1.0, 0}, goal), LocalController::PlanUpdate::kNewRoute);
   Robot robot{{1.0, 1.0, 0.0}, {}};
   // Odometry frame shifted against the map frame: the controller works in "odom".
   const Transform2D map_to_odom{0.3, -0.2, 0.1};
@@ -273,7 +273,7 @@ TEST(Dwa, FinalTurnIsNotInterruptedByReplanning) {
   const Transform2D identity{};
   int cycles = 0;
   for (; cycles < 100; ++cycles) {
-    controller.setPlan(plan);
+    controller.setPlan(plan, LocalController::PlanUpdate::kReplan);
     if (controller.isGoalReached(robot.pose, robot.velocity, identity)) break;
     const ControlResult r = controller.computeVelocityCommands(costmap->costmap(), costmap->footprint(), robot.pose,
                                                                robot.velocity, identity);
@@ -283,6 +283,31 @@ TEST(Dwa, FinalTurnIsNotInterruptedByReplanning) {
   // pi rad at up to 2.75 rad/s with 3.2 rad/s^2: about 2 s; braking at every re-plan takes 3x longer.
   EXPECT_LE(cycles * config.sim_period, 3.0);
   EXPECT_LE(std::fabs(normalizeAngle(robot.pose.yaw - goal.yaw)), 0.17);
+}
+
+TEST(Dwa, ReplanningKeepsTheOscillationRestrictionANewRouteClearsIt) {
+  // Forward, then backward (the plan turned round): forward is forbidden until the robot has
+  // moved oscillation_reset_dist. move_base's periodic re-plans must keep that restriction, or
+  // a forward/backward dither in step with them never ends (the doors map's pocket exit).
+  const auto m = roomMap(80, 60, {});
+  auto costmap = costmapOf(m);
+  LocalController controller(burgerDwa());
+  const Pose2D pose{2.0, 1.5, 0.0};
+  const auto ahead = straightPlan(pose, {3.0, 1.5, 0.0});
+  const auto behind = straightPlan(pose, {1.0, 1.5, 0.0});
+  const Transform2D identity{};
+  auto command = [&](const std::vector<Pose2D>& plan, LocalController::PlanUpdate update) {
+    controller.setPlan(plan, update);
+    const ControlResult r =
+        controller.computeVelocityCommands(costmap->costmap(), costmap->footprint(), pose, Velocity2D{}, identity);
+    EXPECT_TRUE(r.ok) << r.message;
+    return r.command;
+  };
+  using PlanUpdate = LocalController::PlanUpdate;
+  EXPECT_GT(command(ahead, PlanUpdate::kNewRoute).x, 0.0);
+  EXPECT_LT(command(behind, PlanUpdate::kReplan).x, 0.0);
+  EXPECT_LE(command(ahead, PlanUpdate::kReplan).x, 0.0) << "a re-plan cleared the restriction";
+  EXPECT_GT(command(ahead, PlanUpdate::kNewRoute).x, 0.0) << "a new route keeps an old restriction";
 }
 
 TEST(Transform2D, BetweenMapsOnePoseOntoTheOther) {
