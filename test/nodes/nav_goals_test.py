@@ -282,7 +282,8 @@ class GoalErrorsTest(NavTest):
         robot = self.fleet["tb3_0"]
         patience = rospy.get_param("/tb3_0/move_base/planner_patience")
         planner_period = 1.0 / rospy.get_param("/tb3_0/move_base/planner_frequency")
-        t0 = robot.send(1.75, 1.5, 0.0)  # centre of the south-west column
+        # At a known tick: this node's /clock may lag the simulator's under load (and t0 with it).
+        t0 = robot.send_synchronised((1.75, 1.5, 0.0))  # centre of the south-west column
         state, text, t1 = robot.wait()
         self.assertEqual(GoalStatus.ABORTED, state, text)
         self.assertIn("Failed to find a valid plan", text)
