@@ -174,3 +174,50 @@ def test_claims_sent_to_a_simultaneous_actor_are_refused():
         actor.decide(0, 0, True, first.obs[0], first.action_mask[0].astype(np.uint8).tobytes(), 0, bytes(8))
     with pytest.raises(ObservationError, match="claimed"):
         actor.decide(0, 0, True, first.obs[0], first.action_mask[0].astype(np.uint8).tobytes(), 0, bytes(3))
+
+
+@pytest.mark.parametrize("decision_order", ["sequential", "sequential_logic"])
+def test_allowed_joint_actions_are_those_decide_in_turn_offers(decision_order):
+    scenario = load_scenario(LAB_4R)
+    rules = ClaimRules(decision_order, scenario.predecessors)
+    n_robots, n_tasks = scenario.n_robots, scenario.n_tasks
+    actions = torch.cartesian_prod(*[torch.arange(n_tasks + 1)] * n_robots)          # every joint action
+    finished = torch.tensor([True, False, False, True, False, False, False, False])    # A1 and A4 done
+    env_mask = torch.cat([~finished, torch.tensor([True])]).expand(n_robots, -1)
+    offered = torch.ones(len(actions), dtype=torch.bool)
+
+    def decide(robot, claimed, mask):
+        nonlocal offered
+        choice = actions[:, robot]
+        offered = offered & mask.gather(-1, choice.unsqueeze(-1)).squeeze(-1)
+        return choice
+    rules.decide_in_turn(env_mask.expand(len(actions), -1, -1), decide)
+    allowed = rules.allowed(env_mask, actions, range(n_robots))
+    assert torch.equal(allowed, offered)
+    assert 0 < int(allowed.sum()) < len(actions)
+    # Another order is the index order of the robots listed in that order.
+    order = [2, 0, 3, 1]
+    assert torch.equal(rules.allowed(env_mask, actions, order), rules.allowed(env_mask[order], actions[:, order],
+                                                                             range(n_robots)))
+
+
+def test_the_exact_search_over_an_in_turn_order_finds_that_orders_best_schedule():
+    from marl_mrta.baselines.exact import solve_exact
+    from marl_mrta.baselines.plan import SchedulingInstance
+    # Nodes: robots 0 and 1, task A (2), task B (3) after A. Robot 1 is next to A, robot 0 nearer
+    # B: the optimum sends both at once (5 s), which robot 0 deciding first cannot choose (B is
+    # closed to it while A is unclaimed): it waits a step for robot 1 to finish A (6 s).
+    travel = np.array([[0.0, 9.0, 6.0, 5.0], [9.0, 0.0, 1.0, 8.0], [6.0, 1.0, 0.0, 10.0], [5.0, 8.0, 10.0, 0.0]])
+    instance = SchedulingInstance(2, 2, travel, (0.0, 0.0), ((), (0,)), 1.0)
+    rules = ClaimRules("sequential_logic", instance.predecessors)
+
+    def in_order(order):
+        def allowed(actions, done, pos):
+            env_mask = torch.as_tensor(np.append(~done, True)).expand(2, -1)
+            return rules.allowed(env_mask, torch.as_tensor(actions, dtype=torch.long), order).numpy()
+        return allowed
+    assert solve_exact(instance).makespan == pytest.approx(5.0)
+    robot_0_first = solve_exact(instance, allowed=in_order([0, 1]))
+    assert robot_0_first.proven_optimal and robot_0_first.makespan == pytest.approx(6.0)
+    assert robot_0_first.joint_actions[0] == [None, 0]
+    assert solve_exact(instance, allowed=in_order([1, 0])).makespan == pytest.approx(5.0)

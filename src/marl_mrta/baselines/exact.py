@@ -30,7 +30,7 @@ import heapq
 import math
 import time
 from dataclasses import dataclass
-from typing import Dict, List, Optional, Tuple
+from typing import Callable, Dict, List, Optional, Tuple
 
 import numpy as np
 
@@ -168,13 +168,21 @@ def _unproven(instance: SchedulingInstance, status: str, lower: float, **details
                 details=dict(details, status=status, lower_bound=lower), instance=instance)
 
 
+#: allowed(actions (B, n_robots) with n_tasks for None, finished (n_tasks,) bool, robot nodes
+#: (n_robots,)) -> (B,) bool: the joint actions a narrower decision process offers in a state.
+JointActionFilter = Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
+
+
 def solve_exact(instance: SchedulingInstance, max_expansions: Optional[int] = None,
-                upper_bound: Optional[float] = None, budget: AStarBudget = AStarBudget()) -> Plan:
+                upper_bound: Optional[float] = None, budget: AStarBudget = AStarBudget(),
+                allowed: Optional[JointActionFilter] = None) -> Plan:
     """A* over (finished set, robot nodes). upper_bound: makespan of a known logic-consistent
     plan (prunes the search; the optimum is still found when it equals the bound). Within the
     budget (max_expansions, if given, replaces the budget's); past it, a plan without tasks,
     not proven, with details["status"] one line saying which limit stopped it and
-    details["lower_bound"] what the search proved."""
+    details["lower_bound"] what the search proved. With `allowed`, the optimum over the joint
+    actions it lets through (a policy's masks: the best schedule that policy could choose; the
+    heuristic stays admissible, since fewer moves never make a plan shorter)."""
     started = time.monotonic()
     n_r, n_t = instance.n_robots, instance.n_tasks
     bounds = _Bounds(instance)
@@ -227,7 +235,7 @@ def solve_exact(instance: SchedulingInstance, max_expansions: Optional[int] = No
         done, pos = decode(key)
         valid, duration, new_done, new_pos = rules.evaluate(done, pos)
         g_new = g + duration
-        keep = valid.copy()
+        keep = valid.copy() if allowed is None else valid & allowed(rules.actions, done, pos)
         f_new = np.full(len(valid), math.inf)
         h = bounds(new_done[keep], new_pos[keep])
         f_new[keep] = g_new[keep] + h

@@ -122,6 +122,20 @@ class ClaimRules:
         blocked = (self.precedence & pending.unsqueeze(-2)).any(-1)   # some predecessor pending
         return mask & torch.cat([~blocked, torch.ones_like(blocked[..., :1])], dim=-1)
 
+    def allowed(self, env_mask: torch.Tensor, actions: torch.Tensor, order: Sequence[int]) -> torch.Tensor:
+        """Which joint actions the in-turn decision can produce: actions (B, N) long (n_tasks =
+        None), the robots choosing in `order` (decide_in_turn's: 0..N-1) under env_mask (N,
+        n_tasks + 1) bool -> (B,) bool. Measures what a decision order leaves out
+        (tools/mask_ceiling.py)."""
+        claimed = torch.zeros(actions.shape[0], self.n_tasks, dtype=torch.bool)
+        offered = torch.ones(actions.shape[0], dtype=torch.bool)
+        for robot in order:
+            choice = actions[:, robot]
+            mask = self.mask(env_mask[robot].expand(actions.shape[0], -1), claimed)
+            offered &= mask.gather(1, choice.unsqueeze(1)).squeeze(1)
+            claimed |= claimed_flags(choice.unsqueeze(-1), self.n_tasks)
+        return offered
+
     def decide_in_turn(self, env_mask: torch.Tensor,
                        decide: Callable[[int, torch.Tensor, torch.Tensor], torch.Tensor]) -> torch.Tensor:
         """The one in-turn decision: robots choose in index order, robot i offered the
