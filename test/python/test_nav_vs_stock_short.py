@@ -19,7 +19,7 @@ SHORT_MAPS = ("lab", "pillars")
 def test_builtin_reaches_every_goal_stock_reaches_in_comparable_time(tmp_path):
     if not bench.stock_available():
         pytest.skip("stock navigation not available (no move_base/amcl package; make stock-nav)")
-    args = bench.parser().parse_args(["--out", str(tmp_path), "--maps", *SHORT_MAPS, "--legs", "2", "--loc-maps"])
+    args = bench.parser().parse_args(["--out", str(tmp_path), "--maps", *SHORT_MAPS, "--legs", "2", "--repeats", "1", "--loc-maps"])
     assert isinstance(args, argparse.Namespace) and args.loc_maps == []
     report = bench.run(args)
     assert report is not None
