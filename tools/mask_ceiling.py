@@ -6,53 +6,33 @@ baselines/exact.py is run twice: over every joint action, and over those the in-
 (mappo/claims.py, ClaimRules.allowed) can produce under the `finished` mask, with the robots
 choosing in a given order:
 - index: robot 0 first, as ClaimRules.decide_in_turn does;
-- nearest: per state, the robot with the shortest nominal leg to a ready task (open, every
-  predecessor finished) first, ties by index.
+- nearest_ready: per state, the robot with the shortest nominal leg to a ready task (open, every
+  predecessor finished) first, ties by index (what `turn_order: nearest_ready` does).
 The ratio masked ÷ full is the ceiling of any policy with that decision order.
 
-    python3 tools/mask_ceiling.py --scenarios 40 --orders index,nearest [--decision-order sequential_logic]
+    python3 tools/mask_ceiling.py --scenarios 40 --orders index,nearest_ready [--decision-order sequential_logic]
 """
 import argparse
 import sys
 import tempfile
 from pathlib import Path
-from typing import Callable, List, Sequence
+from typing import Callable, Sequence
 
 import numpy as np
-import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
 
 from marl_mrta.apps.train_generalist import LAB_SCENARIOS, generated_scenarios  # noqa: E402
-from marl_mrta.baselines.exact import JointActionFilter, solve_exact  # noqa: E402
+from marl_mrta.baselines.exact import solve_exact  # noqa: E402
 from marl_mrta.baselines.plan import SchedulingInstance  # noqa: E402
 from marl_mrta.baselines.reference import scheduling_instance  # noqa: E402
 from marl_mrta.common.paths import package_root  # noqa: E402
+from marl_mrta.env.observation import TURN_ORDERS  # noqa: E402
 from marl_mrta.env.settings import load_task_settings  # noqa: E402
-from marl_mrta.mappo.claims import ClaimRules  # noqa: E402
+from marl_mrta.mappo.claims import in_turn_filter  # noqa: E402
 from marl_mrta.model.scenario import load_scenario  # noqa: E402
 
-ORDERS = ("index", "nearest")
-
-
-def robot_order(kind: str, instance: SchedulingInstance, done: np.ndarray, pos: np.ndarray) -> List[int]:
-    if kind == "index":
-        return list(range(instance.n_robots))
-    ready = [not done[j] and all(done[p] for p in instance.predecessors[j]) for j in range(instance.n_tasks)]
-    legs = [min([instance.travel[pos[r]][instance.n_robots + j] for j in range(instance.n_tasks) if ready[j]],
-                default=np.inf) for r in range(instance.n_robots)]
-    return sorted(range(instance.n_robots), key=lambda r: (legs[r], r))
-
-
-def in_turn_filter(instance: SchedulingInstance, decision_order: str, kind: str) -> JointActionFilter:
-    rules = ClaimRules(decision_order, instance.predecessors)
-
-    def allowed(actions: np.ndarray, done: np.ndarray, pos: np.ndarray) -> np.ndarray:
-        open_row = torch.as_tensor(np.append(~done, True))              # the `finished` mask, None allowed
-        env_mask = open_row.expand(instance.n_robots, -1)
-        order = robot_order(kind, instance, done, pos)
-        return rules.allowed(env_mask, torch.as_tensor(actions, dtype=torch.long), order).numpy()
-    return allowed
+ORDERS = TURN_ORDERS
 
 
 def ceilings(instance: SchedulingInstance, decision_order: str, orders: Sequence[str]) -> dict:
@@ -68,7 +48,7 @@ def main(argv: Sequence[str] = ()) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--scenarios", type=int, default=40, help="generated scenarios (bench_generalise's test draw)")
     parser.add_argument("--seed", type=int, default=9, help="their seed (bench_generalise's default)")
-    parser.add_argument("--orders", default="index,nearest", help=f"robot orders, of {', '.join(ORDERS)}")
+    parser.add_argument("--orders", default="index,nearest_ready", help=f"robot orders, of {', '.join(ORDERS)}")
     parser.add_argument("--decision-order", default="sequential_logic", choices=("sequential", "sequential_logic"))
     args = parser.parse_args(list(argv))
     orders = [o for o in args.orders.split(",") if o]

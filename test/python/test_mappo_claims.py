@@ -6,11 +6,12 @@ import torch
 
 from marl_mrta.env.factory import make_env
 from marl_mrta.evaluation.loop import run_episodes
-from marl_mrta.mappo.claims import ClaimRules, claimed_flags, with_claims
+from marl_mrta.mappo.claims import ClaimRules, claimed_flags, in_turn_filter, with_claims
 from marl_mrta.mappo.config import ConfigError, config_from_dict
 from marl_mrta.mappo.networks import Actor
 from marl_mrta.mappo.policy import ActorPolicy, SetActorPolicy, load_policy
 from marl_mrta.mappo.runner import Runner
+from marl_mrta.mappo.set_view import SetView
 from marl_mrta.mappo.training_env import set_view_pool
 from marl_mrta.evaluation.training import on_new_env
 from marl_mrta.evaluation.decentralised import ChoiceBoard, DecentralisedPolicy
@@ -71,6 +72,15 @@ def test_sequential_logic_needs_the_finished_mask():
         config_from_dict({"decision_order": "sequential_logic", "action_mask": "logic"}, "preset.yaml")
     with pytest.raises(ConfigError, match="decision_order"):
         config_from_dict({"decision_order": "in_turn"}, "preset.yaml")
+    # turns by the nearest ready task are read from the set actor's rows, in a sequential decision
+    with pytest.raises(ConfigError, match="turn_order"):
+        config_from_dict({"decision_order": "sequential", "turn_order": "nearest_ready"}, "preset.yaml")
+    with pytest.raises(ConfigError, match="turn_order"):
+        config_from_dict({"actor": "set", "append_agent_id": False, "turn_order": "nearest_ready"}, "preset.yaml")
+    with pytest.raises(ConfigError, match="turn_order"):
+        config_from_dict({"turn_order": "farthest"}, "preset.yaml")
+    assert config_from_dict({"actor": "set", "append_agent_id": False, "decision_order": "sequential",
+                             "turn_order": "nearest_ready"}).turn_order == "nearest_ready"
 
 
 def small_config(**extra):
@@ -106,16 +116,17 @@ def test_training_never_gives_a_task_twice_in_a_step(tmp_path):
     assert runner.buffer.obs.shape[-1] == runner.pool.obs_dim + 8 + 4
 
 
-@pytest.mark.parametrize("actor", ["mlp", "set"])
-def test_team_actor_and_per_robot_actors_decide_alike(tmp_path, actor):
+@pytest.mark.parametrize("actor,turn_order", [("mlp", "index"), ("set", "index"), ("set", "nearest_ready")])
+def test_team_actor_and_per_robot_actors_decide_alike(tmp_path, actor, turn_order):
     """act_team (evaluation) and the robots' own actors, asked in turn with the claimed tasks
-    (DecentralisedPolicy), give the same episodes; an actor file keeps the claim rules. The set
-    actor (mappo/set_networks.py) reads who claimed what (the claimer's leg): the marks reach the
-    robots' own actors too."""
+    (DecentralisedPolicy), give the same episodes; an actor file keeps the claim rules and the
+    turn order. The set actor (mappo/set_networks.py) reads who claimed what (the claimer's leg):
+    the marks reach the robots' own actors too. With turns by the nearest ready task, the
+    orchestrator asks the robots in the order their own rows give (as rl_manager does)."""
     scenario = load_scenario(LAB_4R)
     build = lambda: make_env(LAB_4R, "embedded", mask="finished")  # noqa: E731
     if actor == "set":
-        config = small_config(actor="set", append_agent_id=False, set_heads=2, set_layers=1)
+        config = small_config(actor="set", append_agent_id=False, set_heads=2, set_layers=1, turn_order=turn_order)
         pool = set_view_pool(config, [LAB_4R], seed=1)
     else:
         config, pool = small_config(), None
@@ -125,7 +136,7 @@ def test_team_actor_and_per_robot_actors_decide_alike(tmp_path, actor):
     runner.train_one_update()
     runner.save_checkpoint()
     policy = load_policy(tmp_path / "actor.pt", scenario=scenario)
-    assert policy.sequential and policy.decision_order == "sequential_logic"
+    assert policy.sequential and policy.decision_order == "sequential_logic" and policy.turn_order == turn_order
     assert isinstance(policy, SetActorPolicy) == (actor == "set")
 
     class Team:
@@ -151,11 +162,16 @@ def test_team_actor_and_per_robot_actors_decide_alike(tmp_path, actor):
 
     decentral = run_episodes(make_env(LAB_4R, "embedded", mask="finished"),
                              DecentralisedPolicy(4, send, board, timeout=5.0,
-                                                 claim_rules=ClaimRules(policy.decision_order, scenario.predecessors)),
+                                                 claim_rules=ClaimRules(policy.decision_order, scenario.predecessors),
+                                                 turns=None if turn_order == "index"
+                                                 else SetView(scenario, turn_order).turns),
                              episodes=3, seed=7)
     assert [r.robot_task_lists() for r in decentral] == [r.robot_task_lists() for r in central]
     assert [r.makespan for r in decentral] == [r.makespan for r in central]
-    assert [i for i, _ in asked[:4]] == [0, 1, 2, 3]        # in turn
+    first_turns = [0, 1, 2, 3] if turn_order == "index" else \
+        SetView(scenario, turn_order).turns(build().reset(seed=7).obs).tolist()
+    assert first_turns != [0, 1, 2, 3] or turn_order == "index"
+    assert [i for i, _ in asked[:4]] == first_turns         # in turn
     assert sum(asked[0][1]) == 0 and sum(asked[3][1]) >= 1  # the last robot hears of earlier claims
     for record in central:
         for joint in record.joint_actions:
@@ -184,21 +200,28 @@ def test_allowed_joint_actions_are_those_decide_in_turn_offers(decision_order):
     actions = torch.cartesian_prod(*[torch.arange(n_tasks + 1)] * n_robots)          # every joint action
     finished = torch.tensor([True, False, False, True, False, False, False, False])    # A1 and A4 done
     env_mask = torch.cat([~finished, torch.tensor([True])]).expand(n_robots, -1)
-    offered = torch.ones(len(actions), dtype=torch.bool)
+    def offered_in(order):
+        offered = torch.ones(len(actions), dtype=torch.bool)
 
-    def decide(robot, claimed, mask):
-        nonlocal offered
-        choice = actions[:, robot]
-        offered = offered & mask.gather(-1, choice.unsqueeze(-1)).squeeze(-1)
-        return choice
-    rules.decide_in_turn(env_mask.expand(len(actions), -1, -1), decide)
+        def decide(robot, claimed, mask):
+            nonlocal offered
+            choice = actions.gather(1, robot.unsqueeze(1)).squeeze(1)
+            offered = offered & mask.gather(-1, choice.unsqueeze(-1)).squeeze(-1)
+            return choice
+        chosen = rules.decide_in_turn(env_mask.expand(len(actions), -1, -1), decide,
+                                      None if order is None else torch.tensor(order).expand(len(actions), -1))
+        assert torch.equal(chosen, actions)       # each robot's action lands in its own column
+        return offered
     allowed = rules.allowed(env_mask, actions, range(n_robots))
-    assert torch.equal(allowed, offered)
+    assert torch.equal(allowed, offered_in(None))
     assert 0 < int(allowed.sum()) < len(actions)
-    # Another order is the index order of the robots listed in that order.
+    # Another order is the index order of the robots listed in that order, and decide_in_turn follows it.
     order = [2, 0, 3, 1]
-    assert torch.equal(rules.allowed(env_mask, actions, order), rules.allowed(env_mask[order], actions[:, order],
-                                                                             range(n_robots)))
+    in_order = rules.allowed(env_mask, actions, order)
+    assert torch.equal(in_order, rules.allowed(env_mask[order], actions[:, order], range(n_robots)))
+    assert torch.equal(in_order, offered_in(order))
+    # Only the precedence mask depends on who chooses first; no task given twice does not.
+    assert torch.equal(in_order, allowed) == (decision_order == "sequential")
 
 
 def test_the_exact_search_over_an_in_turn_order_finds_that_orders_best_schedule():
@@ -209,15 +232,11 @@ def test_the_exact_search_over_an_in_turn_order_finds_that_orders_best_schedule(
     # closed to it while A is unclaimed): it waits a step for robot 1 to finish A (6 s).
     travel = np.array([[0.0, 9.0, 6.0, 5.0], [9.0, 0.0, 1.0, 8.0], [6.0, 1.0, 0.0, 10.0], [5.0, 8.0, 10.0, 0.0]])
     instance = SchedulingInstance(2, 2, travel, (0.0, 0.0), ((), (0,)), 1.0)
-    rules = ClaimRules("sequential_logic", instance.predecessors)
-
-    def in_order(order):
-        def allowed(actions, done, pos):
-            env_mask = torch.as_tensor(np.append(~done, True)).expand(2, -1)
-            return rules.allowed(env_mask, torch.as_tensor(actions, dtype=torch.long), order).numpy()
-        return allowed
     assert solve_exact(instance).makespan == pytest.approx(5.0)
-    robot_0_first = solve_exact(instance, allowed=in_order([0, 1]))
+    robot_0_first = solve_exact(instance, allowed=in_turn_filter(instance, "sequential_logic", "index"))
     assert robot_0_first.proven_optimal and robot_0_first.makespan == pytest.approx(6.0)
     assert robot_0_first.joint_actions[0] == [None, 0]
-    assert solve_exact(instance, allowed=in_order([1, 0])).makespan == pytest.approx(5.0)
+    # robot 1 stands 1 s from A, the only ready task: it chooses first, and B opens to robot 0
+    nearest_first = solve_exact(instance, allowed=in_turn_filter(instance, "sequential_logic", "nearest_ready"))
+    assert nearest_first.proven_optimal and nearest_first.makespan == pytest.approx(5.0)
+    assert nearest_first.joint_actions[0] == [1, 0]

@@ -11,14 +11,14 @@ import torch
 from marl_mrta.baselines.reference import scenario_reference
 from marl_mrta.common.paths import package_root
 from marl_mrta.env.factory import make_env
-from marl_mrta.env.observation import TASK_FEATURES, SetLayout, feature
+from marl_mrta.env.observation import TASK_FEATURES, SetLayout, feature, turn_ranks
 from marl_mrta.env.settings import load_embedded_settings, load_task_settings
 from marl_mrta.evaluation.training import greedy_episodes
 from marl_mrta.mappo.claims import with_set_claims
 from marl_mrta.mappo.config import config_from_dict, config_to_dict, load_config, resolve_preset
 from marl_mrta.mappo.imitation import demonstrate, imitate
 from marl_mrta.mappo.policy import PolicyFileError, SetActorPolicy, load_policy, save_set_actor
-from marl_mrta.mappo.runner import Runner
+from marl_mrta.mappo.runner import RunError, Runner
 from marl_mrta.mappo.set_networks import SetActor
 from marl_mrta.mappo.set_view import SetView
 from marl_mrta.mappo.training_env import run_overrides, set_view_pool
@@ -126,6 +126,36 @@ def test_a_scenario_listed_in_another_order_gets_the_same_action_distribution(tm
     q = probabilities(moved, second, 2, claimed[task_order])
     np.testing.assert_allclose(q[:8], p[:8][task_order], atol=1e-5)
     assert q[8] == pytest.approx(p[8], abs=1e-5)
+
+
+def test_turns_by_the_nearest_ready_task_follow_the_robots_not_their_listing(tmp_path):
+    """turn_order nearest_ready: the robot with the shortest leg to a ready task chooses first
+    (ties by index), so the team's in-turn decision is the same whatever order the scenario lists
+    its robots and tasks in; with index turns, robot 0 chooses first whatever its legs."""
+    travel = np.array([[[3.0, 1.0, 9.0], [2.0, 5.0, 0.5], [2.0, 7.0, 7.0]]])     # (1, robots, tasks)
+    ready = np.array([[True, True, False]])
+    assert turn_ranks("nearest_ready", travel, ready).tolist() == [[0, 1, 2]]
+    assert turn_ranks("nearest_ready", travel, np.array([[True, False, True]])).tolist() == [[2, 0, 1]]
+    assert turn_ranks("index", travel, ready).tolist() == [[0, 1, 2]]
+    nearest = {**IN_TURN, "turn_order": "nearest_ready"}
+    robot_order, task_order = [2, 0, 3, 1], [5, 7, 0, 2, 6, 1, 4, 3]
+    permuted = permuted_copy(tmp_path, LAB_4R, robot_order, task_order)
+    original_env, permuted_env = make_env(LAB_4R, mask="finished"), make_env(permuted, mask="finished")
+    original = fresh_policy(nearest).for_scenario(original_env.scenario)
+    moved = fresh_policy(nearest).for_scenario(permuted_env.scenario)
+    first, second = original_env.reset(seed=0), permuted_env.reset(seed=0)
+    first, second = original_env.step([0, 8, 8, 8]), permuted_env.step([8, task_order.index(0), 8, 8])
+    turns = original.view.turns(first.obs).tolist()
+    assert turns[0] != 0                                  # robot 0 stands on A1, finished: not nearest
+    assert moved.view.turns(second.obs).tolist() == [robot_order.index(r) for r in turns]
+    for step in range(3):
+        joint, _ = original.act_team(first.obs, first.action_mask, original.initial_hidden(4))
+        joint_moved, _ = moved.act_team(second.obs, second.action_mask, moved.initial_hidden(4))
+        none = 8
+        assert [none if a == none else task_order.index(a) for a in joint[robot_order]] == joint_moved.tolist()
+        first, second = original_env.step(joint.tolist()), permuted_env.step(joint_moved.tolist())
+        if first.done:
+            break
 
 
 @pytest.fixture(scope="module")
@@ -257,6 +287,13 @@ def test_init_starts_a_run_from_a_set_actor_file(tmp_path, capsys):
     fresh = Runner(config, None, evaluate=lambda actor, seeds: [], scenario="lab_2r", seed=0, out_dir=tmp_path / "f",
                    tensorboard=False, plots=False, pool=set_view_pool(config, [LAB_2R], 0))
     assert not same_weights(fresh.trainer.actor.state_dict(), weights)
+    # the file keeps its turn order: a run taking turns otherwise is refused, naming the key
+    nearest = config_from_dict({"actor": "set", "append_agent_id": False, **SMALL_SET, **IN_TURN,
+                                "turn_order": "nearest_ready"})
+    with pytest.raises(RunError, match="turn_order=index"):
+        Runner(nearest, None, evaluate=lambda actor, seeds: [], scenario="lab_2r", seed=0, out_dir=tmp_path / "n",
+               tensorboard=False, plots=False, pool=set_view_pool(nearest, [LAB_2R], 0),
+               init_actor=str(tmp_path / "start.pt"))
 
     settings = [f"{key}={value}" for key, value in {**SMALL_SET, "n_envs": 4, "batch_size": 80, "minibatch_size": 80,
                                                      "total_env_steps": 80, "critic_warmup_updates": 1,

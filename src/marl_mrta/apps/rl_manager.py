@@ -22,6 +22,7 @@ from marl_mrta.evaluation.decentralised import ActorTimeout, ChoiceBoard, Decent
 from marl_mrta.evaluation.loop import run_episodes
 from marl_mrta.evaluation.summary import ProgressLine, episode_rows, format_table, method_report, write_document
 from marl_mrta.mappo.claims import ClaimRules
+from marl_mrta.mappo.set_view import SetView
 from marl_mrta.model.scenario import ScenarioError
 from marl_mrta.ros.actor_links import RosActorLinks, check_actor_masks
 from marl_mrta.ros.env_client import ManagerUnavailable, RosTaskEnvClient
@@ -58,10 +59,13 @@ def execute(args: argparse.Namespace, log: Callable[[str], None]) -> Dict:
     links = RosActorLinks(namespaces, board)
     log(f"rl_manager: waiting for the actors of {', '.join(namespaces)}")
     links.wait_connected(args.connect_timeout)
-    decision_order = check_actor_masks(namespaces, env.settings.mask)
+    decision_order, turn_order = check_actor_masks(namespaces, env.settings.mask)
     claim_rules = ClaimRules(decision_order, env.scenario.predecessors)
     if claim_rules.sequential:
-        log(f"rl_manager: decision order {decision_order}: robots answer in turn, each told the tasks claimed before it")
+        log(f"rl_manager: decision order {decision_order}, turns by {turn_order}: robots answer in turn, each told "
+            f"the tasks claimed before it")
+    # The order the robots' set actors read from their own rows (None: index order).
+    turns = SetView(env.scenario, turn_order).turns if claim_rules.sequential and turn_order != "index" else None
 
     exact_makespan = None
     if not args.no_exact:
@@ -69,7 +73,7 @@ def execute(args: argparse.Namespace, log: Callable[[str], None]) -> Dict:
         exact_makespan = exact.makespan if exact.proven_optimal else None
 
     policy = DecentralisedPolicy(env.n_agents, links.send, board, args.choice_timeout, stop=rospy.is_shutdown,
-                                 claim_rules=claim_rules)
+                                 claim_rules=claim_rules, turns=turns)
     started = time.monotonic()
     records = run_episodes(env, policy, args.episodes, args.seed, ProgressLine(f"decentralised on {env.scenario.name}"),
                            stop_on_abort=env.stops_on_abort)

@@ -5,8 +5,8 @@ Started in the robot's namespace (launch/execute.launch). Parameters: ~policy (a
 a set actor reads its observation with the scenario's tasks and nominal travel times, which
 every robot knows). Subscribes only to this robot's task_observation (marl_mrta/RobotObservation) and publishes its choice on task_choice
 (marl_mrta/TaskChoice); its GRU state is its own, reset at each episode_start. Sets
-~action_mask and ~decision_order to those its policy was trained with (rl_manager checks them;
-a sequential policy is asked in turn, with the tasks claimed before it in `claimed`).
+~action_mask, ~decision_order and ~turn_order to those its policy was trained with (rl_manager
+checks them; a sequential policy is asked in turn, with the tasks claimed before it in `claimed`).
 """
 
 import rospy
@@ -37,6 +37,7 @@ def main() -> int:
         return 2
     rospy.set_param("~action_mask", actor.policy.action_mask)
     rospy.set_param("~decision_order", actor.policy.decision_order)
+    rospy.set_param("~turn_order", actor.policy.turn_order)
     choices = rospy.Publisher("task_choice", TaskChoice, queue_size=10)
 
     def on_observation(msg: RobotObservation) -> None:

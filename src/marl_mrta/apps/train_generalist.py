@@ -186,7 +186,8 @@ def _imitation_stage(config: MappoConfig, scenarios: Sequence[Scenario], plans: 
     demos: List[Demonstration] = []
     for scenario, plan in zip(scenarios, plans):
         env = make_env(scenario, "embedded", mask=config.action_mask)
-        demos.append(demonstrate(env, SetView(scenario), plan["joint_actions"], config.decision_order, seed=0))
+        demos.append(demonstrate(env, SetView(scenario, config.turn_order), plan["joint_actions"], config.decision_order,
+                                 seed=0))
     make_deterministic(seed)
     actor = SetActor(config.hidden_size, config.set_heads, config.set_layers)
     history = imitate(actor, demos, epochs=epochs, learning_rate=learning_rate, demos_per_batch=16,

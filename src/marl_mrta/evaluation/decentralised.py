@@ -95,11 +95,15 @@ class DecentralisedPolicy:
 
     def __init__(self, n_agents: int, send: Callable[[int, ObservationRow], None], board: ChoiceBoard,
                  timeout: float, resend_period: float = 1.0, stop: Callable[[], bool] = lambda: False,
-                 claim_rules: Optional[ClaimRules] = None):
+                 claim_rules: Optional[ClaimRules] = None,
+                 turns: Optional[Callable[[np.ndarray], torch.Tensor]] = None):
         """claim_rules: the actors decide one after another, each told the tasks claimed before
-        it (mappo/claims.py, the paper's assigned-task list); None: all at once."""
+        it (mappo/claims.py, the paper's assigned-task list); None: all at once. turns(every
+        robot's observation row): the robots in the order they answer (the actors' turn order,
+        SetView.turns); None: index order."""
         self.n_agents = n_agents
         self.claim_rules = claim_rules
+        self.turns = turns
         self.send = send
         self.board = board
         self.timeout = timeout
@@ -132,10 +136,11 @@ class DecentralisedPolicy:
         return [int(a) for a in actions]
 
     def _act_in_turn(self, output: StepOutput) -> List[int]:
-        """Robot i is asked once robots 0..i-1 have answered, with the tasks they claimed."""
+        """A robot is asked once the robots before it (turns) have answered, with the tasks they claimed."""
         self.board.expect(self.episode, self.step)
 
-        def ask(robot: int, claimed: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+        def ask(turn: torch.Tensor, claimed: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+            robot = int(turn)
             row = ObservationRow(episode=self.episode, step=self.step, episode_start=self.step == 0,
                                  obs=np.asarray(output.obs[robot], dtype=np.float32),
                                  action_mask=mask.numpy().astype(np.uint8), agent_index=robot,
@@ -145,6 +150,8 @@ class DecentralisedPolicy:
                                       stop=self.stop, robots=[robot])
             return torch.tensor(answers[robot], dtype=torch.long)
 
-        actions = self.claim_rules.decide_in_turn(torch.as_tensor(np.asarray(output.action_mask, dtype=bool)), ask)
+        actions = self.claim_rules.decide_in_turn(torch.as_tensor(np.asarray(output.action_mask, dtype=bool)), ask,
+                                                  None if self.turns is None
+                                                  else self.turns(np.asarray(output.obs, dtype=np.float32)))
         self.step += 1
         return [int(a) for a in actions]

@@ -10,16 +10,20 @@ allowed. `sequential_logic` (with the `finished` action mask) also keeps a task 
 each of its predecessors is finished or claimed before this robot in the same step: the `logic`
 mask, widened by the claims, so a robot may head for B1 while another is doing A1 (the 4-robot
 optimum does exactly that; whether it arrives in order is still judged by the task rules).
-Execution stays decentralised: each robot's actor needs its own observation and the list of
+The set actor may also take turns by `turn_order: nearest_ready` (env/observation.py,
+turn_ranks): the robot nearest a ready task first, so that the robot about to claim a
+predecessor does so before the others look at its successors. Execution stays decentralised: each robot's actor needs its own observation and the list of
 claimed tasks, nothing else.
 """
 from __future__ import annotations
 
 from typing import Callable, Optional, Sequence
 
+import numpy as np
 import torch
 
-from marl_mrta.env.observation import ROBOT_FEATURES, SELF_FEATURES, TASK_FEATURES, TIME_CAP, SetLayout, feature
+from marl_mrta.env.observation import (ROBOT_FEATURES, SELF_FEATURES, TASK_FEATURES, TIME_CAP, SetLayout, feature,
+                                        turn_ranks)
 
 
 def is_sequential(decision_order: str) -> bool:
@@ -77,6 +81,19 @@ def with_set_claims(rows: torch.Tensor, claimed: torch.Tensor, precedence: Optio
     own[..., feature(SELF_FEATURES, "claimed_step")] = claim_leg.amax(dim=-1) if claim_leg.shape[-1] else 0.0
     lead = rows.shape[:-1]
     return torch.cat([own, robots.reshape(*lead, -1), tasks.reshape(*lead, -1), travel.reshape(*lead, -1)], dim=-1)
+
+
+def turns_from_rows(rows: torch.Tensor, task_slots: int) -> torch.Tensor:
+    """Every robot's own set row of one decision (..., robot_slots, width), as encoded (env/
+    observation.py, turn_ranks) -> the robots in the order they choose (..., robot_slots) long:
+    by how many robots each row says decided before it, padded slots last. Read from the rows,
+    so that the decision follows exactly the turns the rows were encoded with."""
+    layout = SetLayout.of(rows.shape[-1], task_slots)
+    _, robots, _, _ = layout.split(rows)
+    before = robots[..., feature(ROBOT_FEATURES, "decided")].sum(-1).round().long()       # (..., N)
+    padded = (robots[..., feature(ROBOT_FEATURES, "is_self")].sum(-1) < 0.5).long()
+    slots = torch.arange(layout.robot_slots)
+    return ((padded * (layout.robot_slots + 1) + before) * layout.robot_slots + slots).argsort(dim=-1)
 
 
 def without_claimed(action_mask: torch.Tensor, claimed: torch.Tensor) -> torch.Tensor:
@@ -137,20 +154,47 @@ class ClaimRules:
         return offered
 
     def decide_in_turn(self, env_mask: torch.Tensor,
-                       decide: Callable[[int, torch.Tensor, torch.Tensor], torch.Tensor]) -> torch.Tensor:
-        """The one in-turn decision: robots choose in index order, robot i offered the
-        environment's mask narrowed by the tasks robots 0..i-1 claimed in this step.
+                       decide: Callable[[torch.Tensor, torch.Tensor, torch.Tensor], torch.Tensor],
+                       order: Optional[torch.Tensor] = None) -> torch.Tensor:
+        """The one in-turn decision: robots choose one after another, each offered the
+        environment's mask narrowed by the tasks the robots before it claimed in this step.
 
-        env_mask (..., N, n_tasks + 1) bool under the `finished` or `logic` mode; decide(i,
-        claimed (..., n_tasks) long, mask (..., n_tasks + 1) bool) -> robot i's actions (...,)
-        long, for every leading index at once (environments). claimed[j] is 0 for a free task
-        and k + 1 for a task robot k claimed (the robots' own actors read `claimed > 0`; the set
-        actor also whose trip it is). Returns the actions (..., N)."""
-        claimed = torch.zeros(*env_mask.shape[:-2], self.n_tasks, dtype=torch.long)
-        actions = []
-        for robot in range(env_mask.shape[-2]):
-            action = decide(robot, claimed, self.mask(env_mask[..., robot, :], claimed > 0))
-            actions.append(action)
+        env_mask (..., N, n_tasks + 1) bool under the `finished` or `logic` mode; order (..., N)
+        long: the robots in the order they choose (turns_from_rows; default index order). decide(robot
+        (...,) long, claimed (..., n_tasks) long, mask (..., n_tasks + 1) bool) -> that robot's
+        actions (...,) long, for every leading index at once (environments). claimed[j] is 0 for
+        a free task and k + 1 for a task robot k claimed (the robots' own actors read
+        `claimed > 0`; the set actor also whose trip it is). Returns the actions (..., N)."""
+        lead, n = env_mask.shape[:-2], env_mask.shape[-2]
+        if order is None:
+            order = torch.arange(n).expand(*lead, n)
+        claimed = torch.zeros(*lead, self.n_tasks, dtype=torch.long)
+        actions = torch.zeros(*lead, n, dtype=torch.long)
+        for turn in range(n):
+            robot = order[..., turn]
+            robot_mask = env_mask.gather(-2, robot[..., None, None].expand(*lead, 1, env_mask.shape[-1])).squeeze(-2)
+            action = decide(robot, claimed, self.mask(robot_mask, claimed > 0))
+            actions.scatter_(-1, robot.unsqueeze(-1), action.unsqueeze(-1))
             taken = claimed_flags(action.unsqueeze(-1), self.n_tasks) & (claimed == 0)
-            claimed = torch.where(taken, torch.full_like(claimed, robot + 1), claimed)
-        return torch.stack(actions, dim=-1)
+            claimed = torch.where(taken, (robot + 1).unsqueeze(-1).expand_as(claimed), claimed)
+        return actions
+
+
+def in_turn_filter(instance, decision_order: str, turn_order: str) -> Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]:
+    """The joint actions the in-turn decision can produce, as a filter for the A*'s states
+    (baselines/exact.py, JointActionFilter) of a SchedulingInstance: the `finished` mask, the
+    robots taking turns by `turn_order` (turn_ranks) on the nominal legs from where they stand.
+    Measures what a decision process leaves out (tools/mask_ceiling.py)."""
+    rules = ClaimRules(decision_order, instance.predecessors)
+    n, m = instance.n_robots, instance.n_tasks
+    to_task = np.asarray(instance.travel, dtype=np.float64)[:, n:]
+    precedes = np.zeros((m, m), dtype=bool)                                   # [task, predecessor]
+    for task, preds in enumerate(instance.predecessors):
+        precedes[task, list(preds)] = True
+
+    def allowed(actions: np.ndarray, done: np.ndarray, pos: np.ndarray) -> np.ndarray:
+        ready = ~done & ~(precedes & ~done[None, :]).any(axis=1)
+        order = np.argsort(turn_ranks(turn_order, to_task[np.asarray(pos)][None], ready[None])[0], kind="stable")
+        env_mask = torch.as_tensor(np.append(~done, True)).expand(n, -1)
+        return rules.allowed(env_mask, torch.as_tensor(actions, dtype=torch.long), order.tolist()).numpy()
+    return allowed

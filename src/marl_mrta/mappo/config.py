@@ -14,6 +14,7 @@ from typing import Any, Dict, Optional, Tuple, Union
 
 from marl_mrta.common.config import ConfigError, ConfigSection, read_yaml
 from marl_mrta.common.paths import package_root
+from marl_mrta.env.observation import TURN_ORDERS
 from marl_mrta.env.settings import MASK_MODES
 from marl_mrta.model.reward import check_reward_overrides
 
@@ -60,6 +61,9 @@ class MappoConfig:
                                   "each seeing and unable to take the tasks claimed before it | sequential_logic: "
                                   "also only tasks whose predecessors are finished or claimed (mappo/claims.py)",
                                   choices=DECISION_ORDERS)
+    turn_order: str = setting("index", "who chooses first when deciding in sequence: index (robot 0) | nearest_ready: "
+                              "the robot with the shortest leg to a ready task (actor: set; env/observation.py)",
+                              choices=TURN_ORDERS)
     noise_profile: str = setting("ideal", "embedded executor noise profile, a name in config/noise_profiles.yaml")
     reward_overrides: Dict[str, Dict[str, float]] = setting(
         {}, "reward values replaced for training, as in a scenario's <reward>: {section: {key: value}} over config/reward.yaml")
@@ -154,6 +158,9 @@ def _check_consistency(source: str, config: MappoConfig) -> None:
     if config.decision_order == "sequential_logic" and config.action_mask != "finished":
         raise ConfigError(f"{source}: action_mask: decision_order sequential_logic reads which tasks are finished "
                           f"from the environment's mask, so it needs action_mask finished, not {config.action_mask}")
+    if config.turn_order != "index" and (config.actor != "set" or config.decision_order == "simultaneous"):
+        raise ConfigError(f"{source}: turn_order: {config.turn_order} orders a sequential decision of the set actor; "
+                          f"this run has actor {config.actor}, decision_order {config.decision_order} (use index)")
     if config.actor == "set" and config.append_agent_id:
         raise ConfigError(f"{source}: append_agent_id: the set actor tells robots apart by their tokens, not by an "
                           "index; set it false")

@@ -21,7 +21,7 @@ import torch
 
 from marl_mrta.env.api import TaskAllocationEnv
 from marl_mrta.env.observation import SetLayout
-from marl_mrta.mappo.claims import ClaimRules, is_sequential, with_set_claims
+from marl_mrta.mappo.claims import ClaimRules, is_sequential, turns_from_rows, with_set_claims
 from marl_mrta.mappo.set_networks import SetActor
 from marl_mrta.mappo.set_view import SetView, slot_mask
 
@@ -55,13 +55,15 @@ def demonstrate(env: TaskAllocationEnv, view: SetView, joint_actions: Sequence[S
         seen = rows.clone()
         masks = torch.zeros(n, none + 1, dtype=torch.bool)
 
-        def decide(robot: int, claimed: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+        def decide(robot: torch.Tensor, claimed: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+            i = int(robot)
             if sequential:
-                seen[robot] = with_set_claims(rows[robot:robot + 1], claimed.unsqueeze(0), rules.precedence)[0]
-            masks[robot] = mask
-            return torch.tensor(planned[robot])
+                seen[i] = with_set_claims(rows[i:i + 1], claimed.unsqueeze(0), rules.precedence)[0]
+            masks[i] = mask
+            return torch.tensor(planned[i])
 
-        rules.decide_in_turn(torch.as_tensor(np.asarray(out.action_mask, dtype=bool)), decide)
+        rules.decide_in_turn(torch.as_tensor(np.asarray(out.action_mask, dtype=bool)), decide,
+                             turns_from_rows(rows, none) if sequential else None)
         rows_t.append(seen.numpy())
         masks_t.append(masks.numpy())
         actions_t.append(planned)

@@ -98,6 +98,8 @@ class ActorPolicy:
         #: Sequential: robots decide in index order, each seeing the tasks claimed before it (mappo/claims.py).
         self.decision_order: str = self.settings.get("decision_order", "simultaneous")
         self.sequential: bool = is_sequential(self.decision_order)
+        #: In sequence: who chooses first (env/observation.py, TURN_ORDERS; the set actor's only).
+        self.turn_order: str = self.settings.get("turn_order", "index")
         #: Per task, its predecessors (the scenario the actor was trained on).
         self.predecessors = [list(p) for p in predecessors] if predecessors is not None \
             else [[] for _ in range(actor.n_actions - 1)]
@@ -129,13 +131,18 @@ class ActorPolicy:
             else torch.as_tensor(np.asarray(action_mask, dtype=bool))
         hidden_rows = [hidden[i:i + 1] for i in range(len(obs))]
 
-        def decide(robot: int, claimed: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
-            action, hidden_rows[robot] = self.act(obs[robot:robot + 1], mask.numpy()[None], hidden[robot:robot + 1],
-                                                  deterministic, agent_ids=[robot], claimed=claimed.numpy()[None])
+        def decide(robot: torch.Tensor, claimed: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+            i = int(robot)
+            action, hidden_rows[i] = self.act(obs[i:i + 1], mask.numpy()[None], hidden[i:i + 1],
+                                              deterministic, agent_ids=[i], claimed=claimed.numpy()[None])
             return torch.as_tensor(action[0])
 
-        actions = self.claim_rules.decide_in_turn(env_mask, decide)
+        actions = self.claim_rules.decide_in_turn(env_mask, decide, self.turns(obs))
         return actions.numpy().astype(np.int64), torch.cat(hidden_rows, 0)
+
+    def turns(self, obs: np.ndarray) -> Optional[torch.Tensor]:
+        """The robots in the order they choose, from every robot's observation row (None: index order)."""
+        return None
 
     @torch.no_grad()
     def act(self, obs: np.ndarray, action_mask: Optional[np.ndarray], hidden: torch.Tensor,
@@ -215,7 +222,12 @@ class SetActorPolicy(ActorPolicy):
 
     def for_scenario(self, scenario: Scenario) -> "SetActorPolicy":
         return SetActorPolicy(self.actor, settings=self.settings, seed=self.seed, source=self.source,
-                              view=SetView(scenario))
+                              view=SetView(scenario, self.turn_order))
+
+    def turns(self, obs: np.ndarray) -> Optional[torch.Tensor]:
+        if self.view is None:
+            raise ValueError(f"{self.source}: a set actor acts on a scenario: bind it first (for_scenario)")
+        return self.view.turns(np.asarray(obs, dtype=np.float32))
 
     def _inputs(self, obs_t: torch.Tensor, mask_t: Optional[torch.Tensor], ids: Sequence[int],
                 claimed: Optional[np.ndarray]) -> Tuple[torch.Tensor, Optional[torch.Tensor]]:

@@ -34,7 +34,7 @@ import torch
 
 from marl_mrta.env.api import TaskAllocationEnv
 from marl_mrta.mappo.buffer import RolloutBuffer
-from marl_mrta.mappo.claims import ClaimRules, with_claims, with_set_claims
+from marl_mrta.mappo.claims import ClaimRules, turns_from_rows, with_claims, with_set_claims
 from marl_mrta.mappo.config import MappoConfig, config_from_dict, config_to_dict
 from marl_mrta.mappo.env_pool import EnvPool, EpisodeSummary, PoolStep, episode_seed
 from marl_mrta.mappo.networks import log_prob_and_entropy, sample_actions
@@ -183,6 +183,10 @@ class Runner:
             if shape != (c.hidden_size, c.set_heads, c.set_layers):
                 raise PolicyFileError(f"{path}: --init: the actor has hidden_size, set_heads, set_layers {shape}, the "
                                       f"settings {(c.hidden_size, c.set_heads, c.set_layers)}")
+            trained_turns = dict(data.get("settings", {})).get("turn_order", "index")
+            if trained_turns != c.turn_order:
+                raise PolicyFileError(f"{path}: --init: the actor takes turns by {trained_turns}, the settings by "
+                                      f"{c.turn_order} (--set turn_order={trained_turns})")
             self.trainer.actor.load_state_dict(set_actor_from_file(path, data).state_dict())
         except PolicyFileError as error:
             raise RunError(str(error)) from None
@@ -395,31 +399,34 @@ class Runner:
             log_probs, _ = log_prob_and_entropy(logits, actions)
             return _Choice(obs, env_mask, actions.reshape(E, N), log_probs.reshape(E, N), out.hidden.reshape(E, N, -1),
                            state, trainer.values(state))
-        # Robots in index order, each seeing the tasks claimed before it (mappo/claims.py).
+        # Robots in turn, each seeing the tasks claimed before it (mappo/claims.py); the set
+        # actor's rows say whose turn comes when (turn_order), per environment.
         identity = torch.eye(N)
         obs = torch.zeros(E, N, trainer.actor_obs_dim)
         mask = torch.zeros_like(env_mask)
         log_probs = torch.zeros(E, N)
         next_hidden = torch.zeros_like(hidden)
+        at = torch.arange(E)
 
         rules = self._claim_rules(rows)
+        order = turns_from_rows(env_obs, env_mask.shape[-1] - 1) if self.config.actor == "set" else None
 
-        def decide(robot: int, claimed: torch.Tensor, mask_i: torch.Tensor) -> torch.Tensor:
+        def decide(robot: torch.Tensor, claimed: torch.Tensor, mask_i: torch.Tensor) -> torch.Tensor:
             if self.config.actor == "set":
-                obs_i = with_set_claims(env_obs[:, robot], claimed, rules.precedence)
+                obs_i = with_set_claims(env_obs[at, robot], claimed, rules.precedence)
             else:
-                obs_i = with_claims(env_obs[:, robot], claimed > 0)
+                obs_i = with_claims(env_obs[at, robot], claimed > 0)
             if self.config.append_agent_id:
-                obs_i = torch.cat([obs_i, identity[robot].expand(E, N)], dim=-1)
-            out = trainer.actor(obs_i.unsqueeze(0), hidden[:, robot], episode_start.unsqueeze(0), mask_i.unsqueeze(0))
+                obs_i = torch.cat([obs_i, identity[robot]], dim=-1)
+            out = trainer.actor(obs_i.unsqueeze(0), hidden[at, robot], episode_start.unsqueeze(0), mask_i.unsqueeze(0))
             logits = out.logits[0]
             action_i = sample_actions(logits, self.action_generator)
             log_prob_i, _ = log_prob_and_entropy(logits, action_i)
-            obs[:, robot], mask[:, robot] = obs_i, mask_i
-            log_probs[:, robot], next_hidden[:, robot] = log_prob_i, out.hidden
+            obs[at, robot], mask[at, robot] = obs_i, mask_i
+            log_probs[at, robot], next_hidden[at, robot] = log_prob_i, out.hidden
             return action_i
 
-        actions = rules.decide_in_turn(env_mask, decide)
+        actions = rules.decide_in_turn(env_mask, decide, order)
         return _Choice(obs, mask, actions, log_probs, next_hidden, state, trainer.values(state))
 
     @torch.no_grad()

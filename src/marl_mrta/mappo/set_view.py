@@ -19,21 +19,24 @@ import dataclasses
 from typing import Callable, Dict, Optional, Sequence, Tuple
 
 import numpy as np
+import torch
 
 from marl_mrta.env.api import StepOutput, TaskAllocationEnv
 from marl_mrta.env.factory import scenario_travel_table
 from marl_mrta.env.observation import ObservationEncoder, SetLayout, SetObservationEncoder
+from marl_mrta.mappo.claims import turns_from_rows
 from marl_mrta.model.scenario import Scenario
 
 
 class SetView:
     """One scenario's observation rows -> set rows (the nominal travel table is planned once)."""
 
-    def __init__(self, scenario: Scenario):
+    def __init__(self, scenario: Scenario, turn_order: str = "index"):
+        """turn_order: how the robots take turns when deciding in sequence (env/observation.py)."""
         table = scenario_travel_table(scenario)
         self.scenario = scenario
         self.flat = ObservationEncoder(scenario, table.map_bounds)
-        self.encoder = SetObservationEncoder(self.flat, scenario, table.nominal_time, table.node_poses)
+        self.encoder = SetObservationEncoder(self.flat, scenario, table.nominal_time, table.node_poses, turn_order)
         self.layout = SetLayout(scenario.n_robots, scenario.n_tasks)
 
     def rows(self, obs: np.ndarray, robots: Sequence[int], sequential: bool,
@@ -43,6 +46,10 @@ class SetView:
             raise ValueError(f"observation of {np.asarray(obs).shape[-1]} values, scenario {self.scenario.name} "
                              f"has {self.flat.obs_dim}")
         return self.encoder.encode(obs, robots, layout or self.layout, sequential)
+
+    def turns(self, obs: np.ndarray) -> torch.Tensor:
+        """The robots in the order they choose (n,) long, from every robot's observation row (n, obs_dim)."""
+        return turns_from_rows(torch.as_tensor(self.rows(obs, range(len(obs)), True)), self.scenario.n_tasks)
 
 
 def slot_mask(mask: np.ndarray, robot_slots: int, task_slots: int) -> np.ndarray:
@@ -60,13 +67,15 @@ class SetViewEnv:
     """Implements env.api.TaskAllocationEnv over one or several scenarios' environments (module doc)."""
 
     def __init__(self, build: Callable[[int], TaskAllocationEnv], n_scenarios: int, robot_slots: int,
-                 task_slots: int, sequential: bool, choose: Optional[Callable[[int], int]] = None):
+                 task_slots: int, sequential: bool, choose: Optional[Callable[[int], int]] = None,
+                 turn_order: str = "index"):
         """build(i): the environment of scenario i (built once, on first use); choose(seed): the
-        scenario of an episode reset with `seed` (default: seed mod n_scenarios)."""
+        scenario of an episode reset with `seed` (default: seed mod n_scenarios); turn_order: as SetView's."""
         self.build = build
         self.n_scenarios = n_scenarios
         self.choose = choose or (lambda seed: seed % n_scenarios)
         self.sequential = sequential
+        self.turn_order = turn_order
         self.layout = SetLayout(robot_slots, task_slots)
         self.n_agents, self.n_actions = robot_slots, task_slots + 1
         self.obs_dim, self.state_dim = self.layout.width, self.layout.state_width()
@@ -85,7 +94,7 @@ class SetViewEnv:
             if env.n_agents > self.n_agents or env.n_actions > self.n_actions:
                 raise ValueError(f"scenario {env.scenario.name}: {env.n_agents} robots and {env.n_actions - 1} tasks "
                                  f"do not fit {self.n_agents} robot and {self.n_actions - 1} task slots")
-            self._built[index] = (env, SetView(env.scenario))
+            self._built[index] = (env, SetView(env.scenario, self.turn_order))
         return self._built[index]
 
     def reset(self, seed: Optional[int] = None) -> StepOutput:

@@ -68,7 +68,8 @@ def set_view_pool(config: MappoConfig, scenarios: Sequence[Union[str, Scenario]]
     robot_slots = max(s.n_robots for s in loaded)
     task_slots = max(s.n_tasks for s in loaded)
     sequential = is_sequential(config.decision_order)
-    envs = [SetViewEnv(lambda i: builds[i](), len(loaded), robot_slots, task_slots, sequential)
+    envs = [SetViewEnv(lambda i: builds[i](), len(loaded), robot_slots, task_slots, sequential,
+                       turn_order=config.turn_order)
             for _ in range(config.n_envs)]
     return EnvPool(envs, seed, mixed=len(loaded) > 1)
 

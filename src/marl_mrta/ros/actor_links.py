@@ -5,7 +5,7 @@ feed are ROS-free (evaluation/decentralised.py)."""
 from __future__ import annotations
 
 import time
-from typing import Sequence
+from typing import Sequence, Tuple
 
 import rospy
 
@@ -46,19 +46,23 @@ class RosActorLinks:
         raise ActorTimeout("shutdown while waiting for the robots' actors")
 
 
-def check_actor_masks(namespaces: Sequence[str], env_mask: str) -> str:
-    """Each actor node states the action-mask mode (~action_mask) and decision order
-    (~decision_order) its policy was trained with; acting under another mask would feed it
-    inputs it never saw. Returns the robots' common decision order."""
-    orders = set()
+def check_actor_masks(namespaces: Sequence[str], env_mask: str) -> Tuple[str, str]:
+    """Each actor node states the action-mask mode (~action_mask), decision order
+    (~decision_order) and turn order (~turn_order) its policy was trained with; acting under
+    another mask would feed it inputs it never saw. Returns the robots' common decision order
+    and turn order: the robots must agree on who answers when."""
+    settings = {"decision_order": set(), "turn_order": set()}
     for ns in namespaces:
         node = "/" + ns.strip("/") + "/" + ACTOR_NODE
         trained = rospy.get_param(node + "/action_mask", None)
         if trained is not None and trained != env_mask:
             raise ValueError(f"{node}/action_mask: the policy was trained with mask "
                              f"{trained}, the task manager runs mask {env_mask} (set mask:={trained})")
-        orders.add(rospy.get_param(node + "/decision_order", "simultaneous"))
-    if len(orders) > 1:
-        raise ValueError(f"{ACTOR_NODE}/decision_order: the robots' policies disagree ({', '.join(sorted(orders))}); "
-                         f"give every robot the same policy")
-    return orders.pop() if orders else "simultaneous"
+        settings["decision_order"].add(rospy.get_param(node + "/decision_order", "simultaneous"))
+        settings["turn_order"].add(rospy.get_param(node + "/turn_order", "index"))
+    for key, values in settings.items():
+        if len(values) > 1:
+            raise ValueError(f"{ACTOR_NODE}/{key}: the robots' policies disagree ({', '.join(sorted(values))}); "
+                             f"give every robot the same policy")
+    return (settings["decision_order"].pop() if settings["decision_order"] else "simultaneous",
+            settings["turn_order"].pop() if settings["turn_order"] else "index")
