@@ -38,7 +38,7 @@ from marl_mrta.baselines.settings import load_baseline_settings
 from marl_mrta.common.config import ConfigError
 from marl_mrta.common.paths import package_root
 from marl_mrta.env.settings import load_task_settings
-from marl_mrta.evaluation.training import on_new_env
+from marl_mrta.evaluation.training import offer_teacher_plan, on_new_env
 from marl_mrta.mappo.config import load_config, resolve_preset
 from marl_mrta.mappo.policy import PolicyFileError, SetActorPolicy, load_policy, read_actor_file
 from marl_mrta.mappo.runner import RunError, Runner
@@ -60,6 +60,7 @@ def trained(scenario: Scenario, preset: str, seconds: float, seed: int, init: st
     runner = Runner(config, make, evaluate=on_new_env(make), scenario=str(scenario.source), seed=seed,
                     out_dir=work, log=lambda line: None, tensorboard=False, plots=False, pool=pool, init_actor=init)
     runner.start()
+    offer_teacher_plan(runner, log=lambda line: None)
     summary = runner.run()
     evaluations = runner.history["evaluations"]
     last = evaluations[-1]["consistent_makespan"] if evaluations else math.inf

@@ -14,7 +14,7 @@ from typing import Any, Callable, Dict, List, Optional
 
 from marl_mrta.common.config import ConfigError
 from marl_mrta.common.paths import package_root
-from marl_mrta.evaluation.training import in_pool, on_new_env
+from marl_mrta.evaluation.training import in_pool, offer_teacher_plan, on_new_env
 from marl_mrta.mappo.config import MappoConfig, config_from_dict, load_config, resolve_preset
 from marl_mrta.mappo.runner import RunError, Runner
 from marl_mrta.mappo.training_env import embedded_factory, set_view_pool
@@ -151,6 +151,7 @@ def _fresh_runner(args: argparse.Namespace, log: Callable[[str], None]) -> Runne
     start = f", starting from {started_from}" if started_from else ""
     log(f"train: {scenario} with preset {preset}, seed {seed}{start}, {config.n_updates} updates of "
         f"{config.batch_size} steps on {where} -> {out}")
+    offer_teacher_plan(runner, log)
     return runner
 
 

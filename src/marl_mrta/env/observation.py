@@ -154,6 +154,20 @@ def feature(names: Sequence[str], name: str) -> int:
     return names.index(name)
 
 
+def check_turn_order(turn_order: str) -> None:
+    if turn_order not in TURN_ORDERS:
+        raise ValueError(f"turn order {turn_order!r}: one of {', '.join(TURN_ORDERS)}")
+
+
+def precedence_matrix(predecessors: Sequence[Sequence[int]], slots: Optional[int] = None) -> np.ndarray:
+    """[task, predecessor] bool of per-task predecessor lists, padded to `slots` tasks."""
+    m = len(predecessors) if slots is None else slots
+    matrix = np.zeros((m, m), dtype=bool)
+    for task, preds in enumerate(predecessors):
+        matrix[task, [int(p) for p in preds]] = True
+    return matrix
+
+
 def turn_ranks(turn_order: str, travel: np.ndarray, ready: np.ndarray) -> np.ndarray:
     """Each robot's turn in a sequential decision (0 = first): travel (k, n, m) nominal times of
     every robot to every task, ready (k, m) bool -> ranks (k, n). nearest_ready: by the robot's
@@ -162,10 +176,9 @@ def turn_ranks(turn_order: str, travel: np.ndarray, ready: np.ndarray) -> np.nda
     (sequential_logic), which costs 4 % of the optimum on average (tools/mask_ceiling.py)."""
     travel, ready = np.asarray(travel, dtype=np.float64), np.asarray(ready, dtype=bool)
     k, n = travel.shape[:2]
+    check_turn_order(turn_order)
     if turn_order == "index":
         return np.broadcast_to(np.arange(n), (k, n)).copy()
-    if turn_order != "nearest_ready":
-        raise ValueError(f"turn order {turn_order!r}: one of {', '.join(TURN_ORDERS)}")
     legs = np.where(ready[:, None, :], travel, np.inf).min(axis=2, initial=np.inf)     # (k, n)
     order = np.lexsort((np.broadcast_to(np.arange(n), (k, n)), legs), axis=-1)          # by leg, then index
     ranks = np.empty((k, n), dtype=np.int64)
@@ -225,8 +238,7 @@ class SetObservationEncoder:
 
     def __init__(self, flat: ObservationEncoder, scenario: Scenario, travel_time: np.ndarray,
                  node_poses: Sequence[Tuple[float, float, float]], turn_order: str = "index"):
-        if turn_order not in TURN_ORDERS:
-            raise ValueError(f"turn order {turn_order!r}: one of {', '.join(TURN_ORDERS)}")
+        check_turn_order(turn_order)
         self.flat = flat
         self.turn_order = turn_order
         n, m = scenario.n_robots, scenario.n_tasks
@@ -238,9 +250,7 @@ class SetObservationEncoder:
         self.task_to_task = time[n:, n:] / self.time_scale
         self.node_xy = np.asarray(node_poses, dtype=np.float64)[:, :2]
         self.task_xy = self.node_xy[n:]
-        self.precedes = np.zeros((m, m), dtype=bool)                  # [task, predecessor]
-        for task, preds in enumerate(scenario.predecessors):
-            self.precedes[task, list(preds)] = True
+        self.precedes = precedence_matrix(scenario.predecessors)      # [task, predecessor]
         self.successors = [np.flatnonzero(self.precedes[:, j]) for j in range(m)]
         self.reverse_topological = _topological(scenario.predecessors)[::-1]
         self.service = np.array([t.service_time for t in scenario.tasks]) / self.time_scale

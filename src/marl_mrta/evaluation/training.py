@@ -3,14 +3,19 @@ episode loop: on an environment of the run's factory, or in the run's own pool o
 (arenas of a simulation, stepped in parallel)."""
 from __future__ import annotations
 
+import time
 from typing import Callable, List, Sequence
 
+from marl_mrta.baselines.ga import solve_ga
+from marl_mrta.baselines.reference import scheduling_instance
+from marl_mrta.baselines.settings import load_baseline_settings
 from marl_mrta.env.api import StepOutput, TaskAllocationEnv
+from marl_mrta.env.settings import load_task_settings
 from marl_mrta.evaluation.loop import run_episode
 from marl_mrta.evaluation.policies import LearnedPolicy
 from marl_mrta.mappo.env_pool import EnvPool, EpisodeSummary, EpisodeTally
 from marl_mrta.mappo.policy import ActorPolicy
-from marl_mrta.mappo.runner import GreedyEvaluation
+from marl_mrta.mappo.runner import GreedyEvaluation, Runner
 
 
 def greedy_episodes(actor: ActorPolicy, env: TaskAllocationEnv, seeds: Sequence[int],
@@ -43,3 +48,23 @@ def in_pool(pool: EnvPool) -> GreedyEvaluation:
         per_env = pool.map(lambda i: greedy_episodes(actor, pool.envs[i], seeds[i::pool.n_envs], env_index=i))
         return [per_env[k % pool.n_envs][k // pool.n_envs] for k in range(len(seeds))]
     return evaluate
+
+
+def offer_teacher_plan(runner: Runner, log: Callable[[str], None] = print) -> None:
+    """A fresh run's teacher (config teacher) plans the run's scenario, and its self-imitation
+    gets the plan as if it had sampled it (mappo/imitation.py, SelfImitation)."""
+    if runner.config.teacher == "none" or runner.self_imitation is None:
+        return
+    scenario = runner.make_env().scenario
+    started = time.perf_counter()
+    task = load_task_settings()
+    plan = solve_ga(scheduling_instance(scenario, task.min_step, task.goal_timeout), load_baseline_settings().ga,
+                    seed=runner.seed)
+    seconds = time.perf_counter() - started
+    if not (plan.complete and plan.logic_violations == 0):
+        log(f"teacher {runner.config.teacher}: no complete schedule in {seconds:.1f} s; nothing offered")
+        runner.wall_time += seconds
+        return
+    runner.offer_plan(plan.makespan, plan.joint_actions, seconds)
+    log(f"teacher {runner.config.teacher}: a schedule of {plan.makespan:.2f} s offered to self-imitation "
+        f"({seconds:.1f} s)")

@@ -12,8 +12,8 @@ mask, widened by the claims, so a robot may head for B1 while another is doing A
 optimum does exactly that; whether it arrives in order is still judged by the task rules).
 The set actor may also take turns by `turn_order: nearest_ready` (env/observation.py,
 turn_ranks): the robot nearest a ready task first, so that the robot about to claim a
-predecessor does so before the others look at its successors. Execution stays decentralised: each robot's actor needs its own observation and the list of
-claimed tasks, nothing else.
+predecessor does so before the others look at its successors. Execution stays decentralised:
+each robot's actor needs its own observation and the list of claimed tasks, nothing else.
 """
 from __future__ import annotations
 
@@ -23,7 +23,7 @@ import numpy as np
 import torch
 
 from marl_mrta.env.observation import (ROBOT_FEATURES, SELF_FEATURES, TASK_FEATURES, TIME_CAP, SetLayout, feature,
-                                        turn_ranks)
+                                        precedence_matrix, turn_ranks)
 
 
 def is_sequential(decision_order: str) -> bool:
@@ -110,10 +110,7 @@ class ClaimRules:
         self.n_tasks = len(predecessors)
         self.precedence = None
         if decision_order == "sequential_logic":
-            self.precedence = torch.zeros(self.n_tasks, self.n_tasks, dtype=torch.bool)  # [task, predecessor]
-            for task, preds in enumerate(predecessors):
-                for pred in preds:
-                    self.precedence[task, int(pred)] = True
+            self.precedence = torch.from_numpy(precedence_matrix(predecessors))  # [task, predecessor]
 
     @classmethod
     def per_row(cls, decision_order: str, predecessors_per_row: Sequence[Sequence[Sequence[int]]],
@@ -122,11 +119,8 @@ class ClaimRules:
         scenarios): row e follows predecessors_per_row[e], tasks padded to n_tasks slots."""
         rules = cls(decision_order, [[] for _ in range(n_tasks)])
         if rules.precedence is not None:
-            rules.precedence = torch.zeros(len(predecessors_per_row), n_tasks, n_tasks, dtype=torch.bool)
-            for row, predecessors in enumerate(predecessors_per_row):
-                for task, preds in enumerate(predecessors):
-                    for pred in preds:
-                        rules.precedence[row, task, int(pred)] = True
+            rules.precedence = torch.from_numpy(np.stack([precedence_matrix(predecessors, n_tasks)
+                                                          for predecessors in predecessors_per_row]))
         return rules
 
     def mask(self, env_mask: torch.Tensor, claimed: torch.Tensor) -> torch.Tensor:
@@ -186,11 +180,9 @@ def in_turn_filter(instance, decision_order: str, turn_order: str) -> Callable[[
     robots taking turns by `turn_order` (turn_ranks) on the nominal legs from where they stand.
     Measures what a decision process leaves out (tools/mask_ceiling.py)."""
     rules = ClaimRules(decision_order, instance.predecessors)
-    n, m = instance.n_robots, instance.n_tasks
+    n = instance.n_robots
     to_task = np.asarray(instance.travel, dtype=np.float64)[:, n:]
-    precedes = np.zeros((m, m), dtype=bool)                                   # [task, predecessor]
-    for task, preds in enumerate(instance.predecessors):
-        precedes[task, list(preds)] = True
+    precedes = precedence_matrix(instance.predecessors)                       # [task, predecessor]
 
     def allowed(actions: np.ndarray, done: np.ndarray, pos: np.ndarray) -> np.ndarray:
         ready = ~done & ~(precedes & ~done[None, :]).any(axis=1)

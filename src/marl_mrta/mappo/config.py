@@ -24,6 +24,8 @@ DECISION_ORDERS = ("simultaneous", "sequential", "sequential_logic")
 #: The actor's network: an MLP on the scenario-sized row (the paper's), or attention over the
 #: robots and tasks as sets (mappo/set_networks.py), which acts on scenarios of any size.
 ACTORS = ("mlp", "set")
+#: Planners whose schedule a run may start its self-imitation with (evaluation/training.py).
+TEACHERS = ("none", "ga")
 
 
 def preset_dir() -> Path:
@@ -94,6 +96,14 @@ class MappoConfig:
     value_norm: bool = setting(True, "learn the critic on running-normalised returns (ValueNorm)")
     critic_warmup_updates: int = setting(0, "updates at the start of a run that train the critic alone (a run "
                                          "starting from a trained actor, train --init, first learns its values)", low=0)
+    self_imitation_epochs: int = setting(0, "when a sampled training episode (complete, logic-consistent) is shorter than "
+                                         "every greedy evaluation so far, the actor imitates it for at most this many "
+                                         "epochs, until its greedy choice takes every action of it (mappo/imitation.py "
+                                         "SelfImitation; actor: set, one embedded scenario; 0 = off)", low=0)
+    self_imitation_lr: float = setting(1e-3, "Adam step size of that imitation", low=0.0, low_open=True)
+    teacher: str = setting("none", "a fresh run first offers this planner's schedule to self-imitation, as if sampled: "
+                           "none | ga (the genetic algorithm of config/baselines.yaml; its time counts as training "
+                           "wall time)", choices=TEACHERS)
     target_kl: float = setting(0.0, "stop the epochs of an update early when approx_kl exceeds this (0 = never)", low=0.0)
 
     # Networks
@@ -166,6 +176,12 @@ def _check_consistency(source: str, config: MappoConfig) -> None:
                           "index; set it false")
     if config.init_actor and config.actor != "set":
         raise ConfigError(f"{source}: init_actor: a run starts from a set actor's weights only with actor: set")
+    if config.self_imitation_epochs and config.actor != "set":
+        raise ConfigError(f"{source}: self_imitation_epochs: the imitation replays episodes as the set actor's rows; "
+                          f"this run has actor {config.actor} (use 0)")
+    if config.teacher != "none" and not config.self_imitation_epochs:
+        raise ConfigError(f"{source}: teacher: {config.teacher}'s schedule is taught by self-imitation; "
+                          "set self_imitation_epochs > 0 (or teacher none)")
     if config.actor == "set" and config.hidden_size % config.set_heads:
         raise ConfigError(f"{source}: set_heads: {config.set_heads} does not divide hidden_size = {config.hidden_size}")
     if config.rollout_length % config.chunk_length:

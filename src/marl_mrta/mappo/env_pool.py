@@ -42,9 +42,12 @@ class EpisodeSummary:
     collisions: float                         # collision events
     logic_consistent: bool                    # complete, every task in precedence order
     robot_tasks: List[List[str]]              # per robot, the task ids it finished, in order
+    #: The episode's reset seed and joint actions, to replay it (self-imitation); not in as_dict().
+    seed: Optional[int] = None
+    joint_actions: Optional[List[List[int]]] = field(default=None, repr=False)
 
     def as_dict(self) -> Dict[str, Any]:
-        return dict(self.__dict__)
+        return {k: v for k, v in self.__dict__.items() if k not in ("seed", "joint_actions")}
 
 
 @dataclass
@@ -83,10 +86,12 @@ class EpisodeTally:
             self.components.setdefault(name, np.zeros_like(self.rewards))
             self.components[name] += values
 
-    def summary(self, env_index: int, final: StepOutput) -> EpisodeSummary:
+    def summary(self, env_index: int, final: StepOutput, seed: Optional[int] = None,
+                joint_actions: Optional[List[List[int]]] = None) -> EpisodeSummary:
         """The ended episode, with the figures of the schedule record its last step carries."""
         record = final.info.episode
-        return EpisodeSummary(env_index=env_index, length=self.length, reward_per_robot=self.rewards.tolist(),
+        return EpisodeSummary(seed=seed, joint_actions=joint_actions, env_index=env_index, length=self.length,
+                              reward_per_robot=self.rewards.tolist(),
                               components={k: v.tolist() for k, v in self.components.items()},
                               terminated=bool(final.done), makespan=float(record.makespan),
                               collisions=float(sum(record.collisions)),
@@ -220,8 +225,9 @@ class EnvPool:
         if not (out.done or out.truncated):
             self._latest[i] = out
             return None
+        seed = episode_seed(self.run_seed, i, self.episode_index[i])
         self.episode_index[i] += 1
-        return self._tallies[i].summary(i, out)
+        return self._tallies[i].summary(i, out, seed, self.episode_actions[i])
 
     def snapshot(self) -> Dict[str, Any]:
         """What restore() needs to rebuild the running episodes."""

@@ -130,8 +130,11 @@ def imitation_loss(actor: SetActor, batch: ImitationBatch):
 
 
 def imitate(actor: SetActor, demos: Sequence[Demonstration], *, epochs: int, learning_rate: float,
-            demos_per_batch: int, seed: int, log: Callable[[str], None] = print) -> List[Dict[str, float]]:
-    """Epochs of Adam on the demonstrations, shuffled with a generator seeded by `seed`.
+            demos_per_batch: int, seed: int, log: Callable[[str], None] = print,
+            until_accurate: bool = False) -> List[Dict[str, float]]:
+    """Epochs of Adam on the demonstrations, shuffled with a generator seeded by `seed`; with
+    until_accurate, a batch whose every example the greedy choice already takes gets no step,
+    and the first epoch in which that holds for every batch is the last.
     Returns each epoch's mean loss and greedy accuracy."""
     optimizer = torch.optim.Adam(actor.parameters(), lr=learning_rate)
     generator = torch.Generator().manual_seed(seed)
@@ -143,15 +146,73 @@ def imitate(actor: SetActor, demos: Sequence[Demonstration], *, epochs: int, lea
         for start in range(0, len(order), demos_per_batch):
             batch = batch_of([demos[i] for i in order[start:start + demos_per_batch]])
             loss, right, count = imitation_loss(actor, batch)
+            losses.append(float(loss.detach()) * count)
+            rights.append(right * count)
+            weights.append(count)
+            if until_accurate and right >= 1.0:   # no step: it could lose an example at the margin
+                continue
             optimizer.zero_grad(set_to_none=True)
             loss.backward()
             torch.nn.utils.clip_grad_norm_(actor.parameters(), 10.0)
             optimizer.step()
-            losses.append(float(loss.detach()) * count)
-            rights.append(right * count)
-            weights.append(count)
         total = max(sum(weights), 1.0)
         history.append({"epoch": epoch + 1, "loss": sum(losses) / total, "accuracy": sum(rights) / total})
         log(f"imitation epoch {epoch + 1}/{epochs} | loss {history[-1]['loss']:.4f} | "
             f"accuracy {history[-1]['accuracy']:.3f}")
+        if until_accurate and history[-1]["accuracy"] >= 1.0:
+            break
     return history
+
+
+class SelfImitation:
+    """The shortest complete, logic-consistent episode the training has sampled, and the actor
+    taught to take it (self-imitation, Oh et al. 2018, on the best episode only).
+
+    Sampling explores around the greedy policy: one of the many sampled episodes of a minute is
+    often shorter than the greedy one. PPO moves the greedy choice there only slowly; imitating
+    that episode until the greedy choice takes every one of its actions gets there at once. The
+    episode is replayed from its seed and actions (Demonstration), so the rows are the ones the
+    actor saw, and its replayed makespan is what counts. A planner's schedule may be offered too
+    (config teacher); it is taught only if the in-turn decision can take every one of its actions."""
+
+    def __init__(self, epochs: int, learning_rate: float, decision_order: str):
+        self.epochs = epochs
+        self.learning_rate = learning_rate
+        self.decision_order = decision_order
+        self.best_makespan = float("inf")   # s, of the best sampled episode
+        self.best_seed: Optional[int] = None
+        self.best_actions: List[List[int]] = []
+
+    def offer(self, makespan: float, seed: Optional[int], joint_actions: Optional[List[List[int]]]) -> None:
+        """A finished complete, logic-consistent sampled episode, or a planner's schedule: its
+        makespan, reset seed and joint actions (None as the last action)."""
+        if seed is not None and joint_actions and makespan < self.best_makespan - 1e-9:
+            self.best_makespan, self.best_seed, self.best_actions = makespan, seed, [list(j) for j in joint_actions]
+
+    def teach(self, actor: SetActor, env: TaskAllocationEnv, view: SetView, below: float,
+              seed: int) -> Optional[Dict[str, float]]:
+        """Imitate the best episode when it is shorter than `below` (the best greedy makespan so
+        far): its replayed makespan, the epochs taken and the greedy accuracy reached; None when
+        there is nothing to teach."""
+        if self.best_seed is None or self.best_makespan >= below - 1e-9:
+            return None
+        none = env.n_actions - 1
+        joints = [[None if a == none else a for a in joint] for joint in self.best_actions]
+        demo = demonstrate(env, view, joints, self.decision_order, seed=self.best_seed)
+        if not demo.allowed.all():   # a plan the in-turn decision cannot take (offered, not sampled)
+            self.best_makespan, self.best_seed, self.best_actions = float("inf"), None, []
+            return None
+        if not demo.makespan < below - 1e-9:   # not replayed as sampled (noise): nothing gained
+            self.best_makespan = demo.makespan
+            return None
+        history = imitate(actor, [demo], epochs=self.epochs, learning_rate=self.learning_rate, demos_per_batch=1,
+                          seed=seed, log=lambda line: None, until_accurate=True)
+        return {"makespan": demo.makespan, "epochs": len(history), "accuracy": history[-1]["accuracy"]}
+
+    def state(self) -> Dict[str, object]:
+        return {"makespan": self.best_makespan, "seed": self.best_seed, "actions": self.best_actions}
+
+    def load(self, state: Dict[str, object]) -> None:
+        self.best_makespan = float(state["makespan"])
+        self.best_seed = state["seed"]
+        self.best_actions = [list(j) for j in state["actions"]]

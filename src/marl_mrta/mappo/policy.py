@@ -14,7 +14,8 @@ import numpy as np
 import torch
 
 from marl_mrta.common.paths import package_root
-from marl_mrta.mappo.claims import ClaimRules, actor_input_size, is_sequential, with_claims, with_set_claims
+from marl_mrta.mappo.claims import (ClaimRules, actor_input_size, is_sequential, turns_from_rows, with_claims,
+                                    with_set_claims)
 from marl_mrta.mappo.networks import Actor, masked_logits, sample_actions
 from marl_mrta.mappo.set_networks import SetActor
 from marl_mrta.mappo.set_view import SetView
@@ -126,22 +127,26 @@ class ActorPolicy:
         with: at once, or one after another with the tasks claimed so far (mappo/claims.py)."""
         if not self.sequential:
             return self.act(obs, action_mask, hidden, deterministic)
-        obs = np.asarray(obs)
-        env_mask = torch.ones(len(obs), self.n_actions, dtype=torch.bool) if action_mask is None \
+        rows = self.encode(np.asarray(obs, dtype=np.float32), range(len(obs)))   # once for every turn
+        env_mask = torch.ones(len(rows), self.n_actions, dtype=torch.bool) if action_mask is None \
             else torch.as_tensor(np.asarray(action_mask, dtype=bool))
-        hidden_rows = [hidden[i:i + 1] for i in range(len(obs))]
+        hidden_rows = [hidden[i:i + 1] for i in range(len(rows))]
 
         def decide(robot: torch.Tensor, claimed: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
             i = int(robot)
-            action, hidden_rows[i] = self.act(obs[i:i + 1], mask.numpy()[None], hidden[i:i + 1],
-                                              deterministic, agent_ids=[i], claimed=claimed.numpy()[None])
-            return torch.as_tensor(action[0])
+            logits, mask_t, hidden_rows[i] = self._logits_of_rows(rows[i:i + 1], mask[None], hidden[i:i + 1], [i],
+                                                                  claimed.numpy()[None])
+            return self._pick(logits, mask_t, deterministic)[0]
 
-        actions = self.claim_rules.decide_in_turn(env_mask, decide, self.turns(obs))
+        actions = self.claim_rules.decide_in_turn(env_mask, decide, self.turns_of_rows(rows))
         return actions.numpy().astype(np.int64), torch.cat(hidden_rows, 0)
 
     def turns(self, obs: np.ndarray) -> Optional[torch.Tensor]:
         """The robots in the order they choose, from every robot's observation row (None: index order)."""
+        return self.turns_of_rows(self.encode(np.asarray(obs, dtype=np.float32), range(len(obs))))
+
+    def turns_of_rows(self, rows: torch.Tensor) -> Optional[torch.Tensor]:
+        """turns() of the encoded rows of every robot."""
         return None
 
     @torch.no_grad()
@@ -154,11 +159,12 @@ class ActorPolicy:
         sequential actor only; default none). Returns actions (k,) int64 (greedy when
         deterministic) and the new hidden state."""
         logits, mask_t, new_hidden = self.logits(obs, action_mask, hidden, agent_ids, claimed)
+        return self._pick(logits, mask_t, deterministic).numpy().astype(np.int64), new_hidden
+
+    def _pick(self, logits: torch.Tensor, mask_t: Optional[torch.Tensor], deterministic: bool) -> torch.Tensor:
         if deterministic:
-            actions = masked_logits(logits, mask_t).argmax(-1)
-        else:
-            actions = sample_actions(logits, self.generator)
-        return actions.numpy().astype(np.int64), new_hidden
+            return masked_logits(logits, mask_t).argmax(-1)
+        return sample_actions(logits, self.generator)
 
     @torch.no_grad()
     def logits(self, obs: np.ndarray, action_mask: Optional[np.ndarray], hidden: torch.Tensor,
@@ -166,16 +172,27 @@ class ActorPolicy:
                ) -> Tuple[torch.Tensor, Optional[torch.Tensor], torch.Tensor]:
         """The action distribution of one decision (arguments as act): masked logits (k, n_actions),
         the mask the robots choose under and the new hidden state."""
-        obs_t = torch.as_tensor(np.asarray(obs, dtype=np.float32))
-        if obs_t.ndim != 2 or obs_t.shape[1] != self.obs_dim:
-            raise ValueError(f"{self.source}: observation shape {tuple(obs_t.shape)}, the actor expects (k, {self.obs_dim})")
-        ids = list(range(obs_t.shape[0])) if agent_ids is None else list(agent_ids)
+        obs = np.asarray(obs, dtype=np.float32)
+        ids = list(range(len(obs))) if agent_ids is None else list(agent_ids)
         mask_t = None if action_mask is None else torch.as_tensor(np.asarray(action_mask, dtype=bool))
-        obs_t, mask_t = self._inputs(obs_t, mask_t, ids, claimed)
-        k = obs_t.shape[0]
-        out = self.actor(obs_t.unsqueeze(0), hidden, torch.zeros(1, k, dtype=torch.bool),
+        return self._logits_of_rows(self.encode(obs, ids), mask_t, hidden, ids, claimed)
+
+    def _logits_of_rows(self, rows: torch.Tensor, mask_t: Optional[torch.Tensor], hidden: torch.Tensor,
+                        ids: Sequence[int], claimed: Optional[np.ndarray]
+                        ) -> Tuple[torch.Tensor, Optional[torch.Tensor], torch.Tensor]:
+        """logits() of encoded rows (encode)."""
+        inputs, mask_t = self._inputs(rows, mask_t, ids, claimed)
+        k = inputs.shape[0]
+        out = self.actor(inputs.unsqueeze(0), hidden, torch.zeros(1, k, dtype=torch.bool),
                          None if mask_t is None else mask_t.unsqueeze(0))
         return out.logits[0], mask_t, out.hidden
+
+    def encode(self, obs: np.ndarray, ids: Sequence[int]) -> torch.Tensor:
+        """The rows the actor reads of observation rows (k, obs_dim) of robots `ids`, checked."""
+        obs_t = torch.as_tensor(obs)
+        if obs_t.ndim != 2 or obs_t.shape[1] != self.obs_dim:
+            raise ValueError(f"{self.source}: observation shape {tuple(obs_t.shape)}, the actor expects (k, {self.obs_dim})")
+        return obs_t
 
     def _claimed(self, claimed: Optional[np.ndarray], k: int, marks: bool = False) -> torch.Tensor:
         """The claimed tasks (k, n_tasks) of a sequential actor, checked (default: none): flags,
@@ -191,7 +208,7 @@ class ActorPolicy:
 
     def _inputs(self, obs_t: torch.Tensor, mask_t: Optional[torch.Tensor], ids: Sequence[int],
                 claimed: Optional[np.ndarray]) -> Tuple[torch.Tensor, Optional[torch.Tensor]]:
-        """The actor's inputs and the mask it chooses under, from observation rows of robots `ids`."""
+        """The actor's inputs and the mask it chooses under, from encoded rows of robots `ids`."""
         if self.sequential:
             claimed_t = self._claimed(claimed, obs_t.shape[0])
             obs_t = with_claims(obs_t, claimed_t)
@@ -224,18 +241,19 @@ class SetActorPolicy(ActorPolicy):
         return SetActorPolicy(self.actor, settings=self.settings, seed=self.seed, source=self.source,
                               view=SetView(scenario, self.turn_order))
 
-    def turns(self, obs: np.ndarray) -> Optional[torch.Tensor]:
-        if self.view is None:
-            raise ValueError(f"{self.source}: a set actor acts on a scenario: bind it first (for_scenario)")
-        return self.view.turns(np.asarray(obs, dtype=np.float32))
+    def turns_of_rows(self, rows: torch.Tensor) -> Optional[torch.Tensor]:
+        # The rows say who chose before only in a sequential decision (SetObservationEncoder).
+        return turns_from_rows(rows, self.n_actions - 1) if self.sequential else None
 
-    def _inputs(self, obs_t: torch.Tensor, mask_t: Optional[torch.Tensor], ids: Sequence[int],
-                claimed: Optional[np.ndarray]) -> Tuple[torch.Tensor, Optional[torch.Tensor]]:
+    def encode(self, obs: np.ndarray, ids: Sequence[int]) -> torch.Tensor:
         if self.view is None:
             raise ValueError(f"{self.source}: a set actor acts on a scenario: bind it first (for_scenario)")
         if any(i < 0 or i >= self.n_agents for i in ids):
             raise ValueError(f"{self.source}: robot index out of range 0..{self.n_agents - 1}: {list(ids)}")
-        rows = torch.as_tensor(self.view.rows(obs_t.numpy(), ids, self.sequential))
+        return torch.as_tensor(self.view.rows(obs, ids, self.sequential))
+
+    def _inputs(self, rows: torch.Tensor, mask_t: Optional[torch.Tensor], ids: Sequence[int],
+                claimed: Optional[np.ndarray]) -> Tuple[torch.Tensor, Optional[torch.Tensor]]:
         if mask_t is None:
             mask_t = torch.ones(rows.shape[0], self.n_actions, dtype=torch.bool)
         if self.sequential:

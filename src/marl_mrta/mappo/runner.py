@@ -27,7 +27,7 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Dict, List, Optional, Sequence
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 import torch
@@ -37,9 +37,11 @@ from marl_mrta.mappo.buffer import RolloutBuffer
 from marl_mrta.mappo.claims import ClaimRules, turns_from_rows, with_claims, with_set_claims
 from marl_mrta.mappo.config import MappoConfig, config_from_dict, config_to_dict
 from marl_mrta.mappo.env_pool import EnvPool, EpisodeSummary, PoolStep, episode_seed
+from marl_mrta.mappo.imitation import SelfImitation
 from marl_mrta.mappo.networks import log_prob_and_entropy, sample_actions
 from marl_mrta.mappo.policy import (ActorPolicy, PolicyFileError, SetActorPolicy, atomic_torch_save, read_actor_file,
                                    save_actor, save_set_actor, set_actor_from_file)
+from marl_mrta.mappo.set_view import SetView
 from marl_mrta.mappo.trainer import MappoTrainer
 
 CHECKPOINT_FORMAT = "marl_mrta.mappo.checkpoint/1"
@@ -165,6 +167,14 @@ class Runner:
         #: keep_best: the best greedy evaluation's consistent makespan and the actor weights that made it.
         self.best_makespan = math.inf
         self.best_actor: Optional[Dict[str, torch.Tensor]] = None
+        self.self_imitation: Optional[SelfImitation] = None
+        self._replay: Optional[Tuple[TaskAllocationEnv, SetView]] = None   # self-imitation's environment
+        if config.self_imitation_epochs and (make_env is None or self.pool.mixed):
+            log("self_imitation_epochs: off in this run: the imitation replays one scenario's episodes in an "
+                "embedded environment, and this run trains in a simulation or across scenarios")
+        elif config.self_imitation_epochs:
+            self.self_imitation = SelfImitation(config.self_imitation_epochs, config.self_imitation_lr,
+                                                config.decision_order)
         self.current: Optional[PoolStep] = None
         self.hidden = torch.zeros(config.n_envs, self.n_agents, config.hidden_size)
         self.episode_start = torch.ones(config.n_envs, dtype=torch.bool)
@@ -248,6 +258,8 @@ class Runner:
         best = data.get("best")
         if best is not None:
             self.best_makespan, self.best_actor = best["makespan"], best["actor"]
+        if self.self_imitation is not None and "self_imitation" in data:
+            self.self_imitation.load(data["self_imitation"])
         self.current = self.pool.restore(data["env_pool"])
         if self.pool.replayable:
             self.hidden = data["hidden"].clone()
@@ -277,6 +289,8 @@ class Runner:
         }
         if self.config.keep_best:
             data["best"] = {"makespan": self.best_makespan, "actor": self.best_actor}
+        if self.self_imitation is not None:
+            data["self_imitation"] = self.self_imitation.state()
         atomic_torch_save(data, self.checkpoint_path)
         actor = self.trainer.actor
         if self.config.keep_best and self.best_actor is not None:
@@ -447,6 +461,8 @@ class Runner:
         self.compute()
         metrics = self.trainer.train(self.buffer, self.env_steps, self.shuffle_generator,
                                      train_actor=self.update >= self.config.critic_warmup_updates)
+        if self.update >= self.config.critic_warmup_updates:
+            self._imitate_best(finished)
         done = time.perf_counter()
         self.update += 1
         self.episodes += len(finished)
@@ -456,6 +472,33 @@ class Runner:
         self.history["episodes"].extend(r.as_dict() for r in finished)
         self.history["updates"].append(metrics)
         return metrics
+
+    def offer_plan(self, makespan: float, joint_actions: Sequence[Sequence[Optional[int]]], seconds: float) -> None:
+        """A planner's schedule for self-imitation (config teacher; evaluation/training.py), offered
+        as an episode of seed 0; the `seconds` of planning count as training wall time."""
+        if self.self_imitation is None:   # off in this run (logged at the start)
+            return
+        none = self.pool.n_actions - 1
+        self.self_imitation.offer(makespan, 0, [[none if a is None else int(a) for a in joint] for joint in joint_actions])
+        self.wall_time += seconds
+
+    def _imitate_best(self, finished: Sequence[EpisodeSummary]) -> None:
+        """Self-imitation (config.self_imitation_epochs): the best sampled episode so far, taught
+        to the actor while it beats every greedy evaluation."""
+        if self.self_imitation is None:
+            return
+        for episode in finished:
+            if episode.terminated and episode.logic_consistent:
+                self.self_imitation.offer(episode.makespan, episode.seed, episode.joint_actions)
+        if self._replay is None:
+            env = self.make_env()
+            self._replay = (env, SetView(env.scenario, self.config.turn_order))
+        greedy = [e["consistent_makespan"] for e in self.history["evaluations"]]
+        taught = self.self_imitation.teach(self.trainer.actor, *self._replay, below=min(greedy, default=math.inf),
+                                           seed=self.seed + self.update)
+        if taught is not None:
+            self.log(f"update {self.update + 1}: imitating a sampled episode of {taught['makespan']:.2f} s "
+                     f"({taught['epochs']} epochs, greedy accuracy {taught['accuracy']:.2f})")
 
     def greedy_policy(self) -> ActorPolicy:
         if self.config.actor == "set":   # bound to each evaluation's scenario there (for_scenario)
