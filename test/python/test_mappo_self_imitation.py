@@ -105,6 +105,7 @@ def test_the_ga_teacher_offers_its_schedule_and_its_time_counts(tmp_path):
     lines = []
     offer_teacher_plan(runner, lines.append)
     assert runner.self_imitation.best_seed == 0 and runner.self_imitation.best_actions
+    assert runner.self_imitation.best_source == "the ga teacher's schedule"   # named so in the log
     assert runner.wall_time > 0.0 and "teacher ga: a schedule of" in lines[0]
     assert runner.self_imitation.best_makespan == pytest.approx(float(lines[0].split("schedule of ")[1].split(" s")[0]),
                                                                 abs=0.01)

@@ -55,7 +55,7 @@ def offer_teacher_plan(runner: Runner, log: Callable[[str], None] = print) -> No
     gets the plan as if it had sampled it (mappo/imitation.py, SelfImitation)."""
     if runner.config.teacher == "none" or runner.self_imitation is None:
         return
-    scenario = runner.make_env().scenario
+    scenario = runner.replay_env()[0].scenario   # built once; self-imitation replays in it
     started = time.perf_counter()
     task = load_task_settings()
     plan = solve_ga(scheduling_instance(scenario, task.min_step, task.goal_timeout), load_baseline_settings().ga,

@@ -182,18 +182,25 @@ class SelfImitation:
         self.best_makespan = float("inf")   # s, of the best sampled episode
         self.best_seed: Optional[int] = None
         self.best_actions: List[List[int]] = []
+        self.best_source = ""   # what the best episode is, for the log
 
-    def offer(self, makespan: float, seed: Optional[int], joint_actions: Optional[List[List[int]]]) -> None:
+    def offer(self, makespan: float, seed: Optional[int], joint_actions: Optional[List[List[int]]],
+              source: str = "a sampled episode") -> None:
         """A finished complete, logic-consistent sampled episode, or a planner's schedule: its
         makespan, reset seed and joint actions (None as the last action)."""
         if seed is not None and joint_actions and makespan < self.best_makespan - 1e-9:
             self.best_makespan, self.best_seed, self.best_actions = makespan, seed, [list(j) for j in joint_actions]
+            self.best_source = source
 
     def teach(self, actor: SetActor, env: TaskAllocationEnv, view: SetView, below: float,
-              seed: int) -> Optional[Dict[str, float]]:
+              seed: int) -> Optional[Dict[str, object]]:
         """Imitate the best episode when it is shorter than `below` (the best greedy makespan so
-        far): its replayed makespan, the epochs taken and the greedy accuracy reached; None when
-        there is nothing to teach."""
+        far): its source, replayed makespan, the epochs taken and the greedy accuracy reached;
+        None when there is nothing to teach.
+
+        Called every update while the episode stays shorter than every greedy evaluation (whose
+        seeds differ from its seed): PPO's next steps may move the greedy choice off it again,
+        and a batch the greedy choice still takes costs one forward pass, no optimiser step."""
         if self.best_seed is None or self.best_makespan >= below - 1e-9:
             return None
         none = env.n_actions - 1
@@ -207,12 +214,15 @@ class SelfImitation:
             return None
         history = imitate(actor, [demo], epochs=self.epochs, learning_rate=self.learning_rate, demos_per_batch=1,
                           seed=seed, log=lambda line: None, until_accurate=True)
-        return {"makespan": demo.makespan, "epochs": len(history), "accuracy": history[-1]["accuracy"]}
+        return {"source": self.best_source, "makespan": demo.makespan, "epochs": len(history),
+                "accuracy": history[-1]["accuracy"]}
 
     def state(self) -> Dict[str, object]:
-        return {"makespan": self.best_makespan, "seed": self.best_seed, "actions": self.best_actions}
+        return {"makespan": self.best_makespan, "seed": self.best_seed, "actions": self.best_actions,
+                "source": self.best_source}
 
     def load(self, state: Dict[str, object]) -> None:
         self.best_makespan = float(state["makespan"])
         self.best_seed = state["seed"]
         self.best_actions = [list(j) for j in state["actions"]]
+        self.best_source = str(state.get("source", "a sampled episode"))

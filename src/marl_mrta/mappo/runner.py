@@ -479,7 +479,8 @@ class Runner:
         if self.self_imitation is None:   # off in this run (logged at the start)
             return
         none = self.pool.n_actions - 1
-        self.self_imitation.offer(makespan, 0, [[none if a is None else int(a) for a in joint] for joint in joint_actions])
+        self.self_imitation.offer(makespan, 0, [[none if a is None else int(a) for a in joint] for joint in joint_actions],
+                                  source=f"the {self.config.teacher} teacher's schedule")
         self.wall_time += seconds
 
     def _imitate_best(self, finished: Sequence[EpisodeSummary]) -> None:
@@ -490,15 +491,20 @@ class Runner:
         for episode in finished:
             if episode.terminated and episode.logic_consistent:
                 self.self_imitation.offer(episode.makespan, episode.seed, episode.joint_actions)
+        greedy = [e["consistent_makespan"] for e in self.history["evaluations"]]
+        taught = self.self_imitation.teach(self.trainer.actor, *self.replay_env(), below=min(greedy, default=math.inf),
+                                           seed=self.seed + self.update)
+        if taught is not None:
+            self.log(f"update {self.update + 1}: imitating {taught['source']} of {taught['makespan']:.2f} s "
+                     f"({taught['epochs']} epochs, greedy accuracy {taught['accuracy']:.2f})")
+
+    def replay_env(self) -> Tuple[TaskAllocationEnv, SetView]:
+        """The embedded environment, and its set view, in which self-imitation replays episodes;
+        built once, on first use."""
         if self._replay is None:
             env = self.make_env()
             self._replay = (env, SetView(env.scenario, self.config.turn_order))
-        greedy = [e["consistent_makespan"] for e in self.history["evaluations"]]
-        taught = self.self_imitation.teach(self.trainer.actor, *self._replay, below=min(greedy, default=math.inf),
-                                           seed=self.seed + self.update)
-        if taught is not None:
-            self.log(f"update {self.update + 1}: imitating a sampled episode of {taught['makespan']:.2f} s "
-                     f"({taught['epochs']} epochs, greedy accuracy {taught['accuracy']:.2f})")
+        return self._replay
 
     def greedy_policy(self) -> ActorPolicy:
         if self.config.actor == "set":   # bound to each evaluation's scenario there (for_scenario)
