@@ -68,9 +68,16 @@ class StaticTfTest(unittest.TestCase):
     def map_base(self):
         """map -> base_footprint at the latest ground truth's stamp, and that ground truth."""
         self.wait_for(lambda: self.truth is not None, "ground truth")
-        with self.lock:
-            truth = self.truth
-        t = self.buffer.lookup_transform("map", BASE, truth.header.stamp, rospy.Duration(10.0)).transform
+        # On a loaded machine the first ground truth can predate the listener's first transforms:
+        # then a later one, whose stamp the buffer covers.
+        deadline = rospy.get_rostime() + rospy.Duration(30.0)
+        while True:
+            with self.lock:
+                truth = self.truth
+            if self.buffer.can_transform("map", BASE, truth.header.stamp, rospy.Duration(1.0)):
+                break
+            self.assertLess(rospy.get_rostime(), deadline, "map -> base_footprint never covered a ground truth stamp")
+        t = self.buffer.lookup_transform("map", BASE, truth.header.stamp).transform
         return (t.translation.x, t.translation.y, yaw_of(t.rotation)), truth.pose.pose
 
     def assert_pose(self, actual, expected):
