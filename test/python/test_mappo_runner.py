@@ -81,6 +81,29 @@ def test_checkpoint_then_resume_gives_bit_identical_next_update(tmp_path):
     assert not torch.equal(_flat_state(fresh)["actor.head.weight"], state["actor.head.weight"])
 
 
+def test_updates_take_train_threads_and_repeat_bit_for_bit(tmp_path):
+    """train_threads: 2: each PPO update runs on two torch threads, collection and evaluation
+    on one again after it; two runs of the same seed end with the same weights, bit for bit."""
+    states = []
+    for k in range(2):
+        runner = _runner(tmp_path / str(k), train_threads=2, hidden_size=128)
+        seen = []
+        train = runner.trainer.train
+
+        def spy(*args, **kwargs):
+            seen.append(torch.get_num_threads())
+            return train(*args, **kwargs)
+
+        runner.trainer.train = spy
+        runner.start()
+        runner.train_one_update()
+        runner.train_one_update()
+        assert seen == [2, 2] and torch.get_num_threads() == 1
+        states.append(_flat_state(runner))
+    for name, tensor in states[0].items():
+        assert torch.equal(states[1][name], tensor), name
+
+
 def test_fresh_run_refuses_an_existing_run_directory(tmp_path):
     runner = _runner(tmp_path)
     runner.start()

@@ -459,8 +459,12 @@ class Runner:
             raise
         collected = time.perf_counter()
         self.compute()
-        metrics = self.trainer.train(self.buffer, self.env_steps, self.shuffle_generator,
-                                     train_actor=self.update >= self.config.critic_warmup_updates)
+        torch.set_num_threads(self.config.train_threads)   # the update's batches are large; collection's are not
+        try:
+            metrics = self.trainer.train(self.buffer, self.env_steps, self.shuffle_generator,
+                                         train_actor=self.update >= self.config.critic_warmup_updates)
+        finally:
+            torch.set_num_threads(1)
         if self.update >= self.config.critic_warmup_updates:
             self._imitate_best(finished)
         done = time.perf_counter()
