@@ -104,6 +104,18 @@ def test_updates_take_train_threads_and_repeat_bit_for_bit(tmp_path):
         assert torch.equal(states[1][name], tensor), name
 
 
+def test_more_train_threads_than_cores_are_named_in_the_log(tmp_path, monkeypatch):
+    monkeypatch.setattr(os, "cpu_count", lambda: 1)
+    lines = []
+    config = config_from_dict({**TINY, "train_threads": 2, "total_env_steps": 24})
+    make_env = embedded_factory(SCENARIO, config)
+    runner = Runner(config, make_env, evaluate=on_new_env(make_env), scenario=SCENARIO, seed=7,
+                    out_dir=tmp_path / "run", log=lines.append, tensorboard=False, plots=False)
+    runner.start()
+    runner.run()
+    assert any("train_threads 2 is more than this machine's 1 cores" in line for line in lines), lines
+
+
 def test_fresh_run_refuses_an_existing_run_directory(tmp_path):
     runner = _runner(tmp_path)
     runner.start()

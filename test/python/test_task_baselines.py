@@ -50,13 +50,19 @@ def scalar_step(inst, finished, positions, goals):
                         inst.predecessors, inst.service, math.inf, inst.min_step)
 
 
+def one_robot_per_goal(goals) -> bool:
+    sent = [g for g in goals if g is not None]
+    return len(sent) == len(set(sent))
+
+
 def brute_force_makespan(inst: SchedulingInstance) -> float:
-    """Every sequence of joint actions (all-None left out: it changes nothing but the clock),
+    """Every sequence of joint actions (all-None left out: it changes nothing but the clock; so
+    are those sending two robots to one goal, which plans never do),
     stepped through model/rules.py; a sequence is dropped when it finishes a task out of order;
     a path is cut when it reaches a state already reached at least as early, or costs more
     than the best complete sequence so far."""
     joint = [list(a) for a in itertools.product(list(range(inst.n_tasks)) + [None], repeat=inst.n_robots)
-             if any(g is not None for g in a)]
+             if any(g is not None for g in a) and one_robot_per_goal(a)]
     best = [math.inf]
     seen = {}
 

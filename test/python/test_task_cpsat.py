@@ -59,6 +59,38 @@ def test_step_model_optimum_equals_astar_on_random_instances(case):
     assert_replays(inst, result.plan)
 
 
+@pytest.mark.parametrize("case", range(12))
+def test_step_model_equals_astar_under_a_precedence_margin(case):
+    """With a margin, both solvers leave at least that much between a predecessor's finish and its
+    successor's arrival in one step, agree on the optimum, and never beat the optimum without it."""
+    plain = small_instance(case)
+    inst = dataclasses.replace(plain, precedence_margin=1.5)
+    optimum = solve_exact(inst)
+    if not optimum.proven_optimal:
+        return
+    result = solve_step_model(inst, BUDGET, solve_auction(inst))
+    assert result.proven_optimal
+    assert result.plan.makespan == pytest.approx(optimum.makespan, abs=1e-5)
+    assert_replays(inst, result.plan)
+    for plan in (optimum, result.plan):
+        assert simulate_joint_actions(inst, plan.joint_actions).thinnest_margin > 1.5
+    assert optimum.makespan >= solve_exact(plain).makespan - 1e-9
+
+
+def test_a_precedence_margin_changes_plans_that_were_too_thin():
+    """Over the random instances, the margin moves some optima: the test above is not vacuous."""
+    moved = 0
+    for case in range(12):
+        plain = small_instance(case)
+        free = solve_exact(plain)
+        if not free.proven_optimal:
+            continue
+        if simulate_joint_actions(plain, free.joint_actions).thinnest_margin <= 1.5:
+            margin = solve_exact(dataclasses.replace(plain, precedence_margin=1.5))
+            moved += margin.makespan > free.makespan + 1e-9
+    assert moved >= 2
+
+
 @pytest.fixture(scope="module", params=["lab_2r", "lab_3r", "lab_4r"])
 def lab(request):
     env = make_env(ROOT / "scenarios" / f"{request.param}.xml", seed=0)
@@ -199,3 +231,19 @@ def test_reference_falls_back_to_cpsat_when_astar_stops():
     assert reference.log[0].startswith("A* stopped at") and len(reference.log) in (4, 5, 6)
     assert reference.lower_bound <= solve_exact(inst).makespan + 1e-9
     assert_replays(inst, reference.plan)
+
+
+def test_plans_send_one_robot_per_goal():
+    """Two robots sent to one goal in a step: the second finds the first standing there. Under
+    short goal timeouts robots reach far goals over other goals, where they would meet."""
+    for case in range(24):
+        inst = small_instance(case)
+        for margin in (0.0, 1.5):
+            inst = dataclasses.replace(inst, precedence_margin=margin)
+            plans = [solve_exact(inst), solve_auction(inst)]
+            if plans[0].proven_optimal:
+                plans.append(solve_step_model(inst, BUDGET, plans[1]).plan)
+            for plan in plans:
+                for step in plan.joint_actions:
+                    sent = [g for g in step if g is not None]
+                    assert len(sent) == len(set(sent)), (case, margin, plan.details.get("solver"), step)

@@ -68,6 +68,8 @@ def test_policy_method_runs_a_saved_actor(tmp_path, capsys):
     (["--method", "random", "--episodes", "0"], "evaluate: --episodes: must be at least 1, got 0"),
     (["--method", "exact", "--time-limit", "0"], "evaluate: --time-limit: must be positive, got 0"),
     (["--method", "exact", "--workers", "0"], "evaluate: --workers: must be at least 1, got 0"),
+    (["--method", "exact", "--precedence-margin", "-1"], "evaluate: --precedence-margin: must be a finite number"),
+    (["--method", "exact", "--precedence-margin", "nan"], "evaluate: --precedence-margin: must be a finite number"),
 ])
 def test_bad_input_is_one_line_and_exit_2(argv, message, tmp_path, capsys):
     code = main(argv + ["--scenario", LAB_2R, "--out", str(tmp_path / "x.json"), "--quiet", "--no-exact"])
@@ -136,3 +138,23 @@ def test_evaluate_finishes_16_robots_and_32_tasks_within_4_gb_of_address_space(t
                 t for tasks in data["exact"]["robot_tasks"] for t in tasks)
             assert summary["logic_consistent_pct"] == 100.0
     assert {e["summary"]["method"] for e in data["results"]} == {"random", "ga", "auction", "exact"}
+
+
+def test_a_precedence_margin_keeps_every_plan_in_order_by_that_much(tmp_path, capsys):
+    """lab_4r's optimum leaves 0.67 s between B1's (B3's) finish and B2's (B4's) arrival; with a
+    1 s margin every planner keeps at least 1 s there, at a longer makespan."""
+    lab_4r = str(ROOT / "scenarios" / "lab_4r.xml")
+    documents = {}
+    for margin in ("0", "1"):
+        out = tmp_path / f"margin_{margin}.json"
+        assert main(["--method", "exact,ga,auction", "--scenario", lab_4r, "--episodes", "1", "--out", str(out),
+                     "--quiet", "--precedence-margin", margin]) == 0
+        documents[margin] = json.loads(out.read_text())
+    assert documents["0"]["exact"]["thinnest_precedence_margin"] < 1.0
+    assert documents["1"]["exact"]["makespan"] > documents["0"]["exact"]["makespan"]
+    for result in documents["1"]["results"]:
+        plan = result["plan"]
+        assert plan["precedence_margin"] == 1.0 and plan["logic_violations"] == 0
+        assert plan["thinnest_precedence_margin"] is None or plan["thinnest_precedence_margin"] > 1.0
+        assert result["summary"]["complete_pct"] == 100.0 and result["summary"]["logic_consistent_pct"] == 100.0
+    assert "with a precedence margin of 1 s" in capsys.readouterr().out

@@ -1,8 +1,10 @@
 """The exact A* baseline: the minimum makespan under the environment's own step rules, proven.
 
 Model. A state is (finished tasks, node of every robot). A move is any joint action of the
-environment (each robot: any task, including finished ones and tasks another robot also
-picks, or None; all-None is left out since it only burns the idle step). Its cost is the
+environment that sends at most one robot to each goal (each robot: any task, finished ones
+included, or None; all-None is left out since it only burns the idle step). Two robots cannot
+both stand on one goal: the second would find the first in its costmap there and fail, so no
+plan asks for it (plan.SchedulingInstance). Its cost is the
 step duration of model/rules.py with nominal travel times; moves that would finish a task
 before one of its predecessors are excluded, since the goal is a complete, logic-consistent
 episode, and so are moves with a leg beyond the goal timeout (it fails: the robot stays and the
@@ -82,15 +84,19 @@ class BatchedRules:
         self.n_r, self.n_t = n_r, n_t
         self.travel = np.asarray(instance.travel, dtype=float)
         combos = np.stack(np.unravel_index(np.arange(batch_size(instance)), (n_t + 1,) * n_r), axis=1)
-        self.actions = combos[(combos < n_t).any(axis=1)]          # drop all-None
+        combos = combos[(combos < n_t).any(axis=1)]                 # drop all-None
+        onehot = combos[:, :, None] == np.arange(n_t)[None, None, :]
+        one_per_goal = onehot.sum(axis=1).max(axis=1) <= 1           # plans send one robot per goal
+        self.actions = combos[one_per_goal]
+        self.onehot = onehot[one_per_goal]
         self.has_goal = self.actions < n_t
-        self.onehot = self.actions[:, :, None] == np.arange(n_t)[None, None, :]
         self.service = np.asarray(instance.service, dtype=float)
         self.pred = np.zeros((n_t, n_t), dtype=bool)               # pred[j, p]: p before j
         for j, preds in enumerate(instance.predecessors):
             self.pred[j, list(preds)] = True
         self.robot_index = np.arange(n_r)
         self.min_step = instance.min_step
+        self.margin = instance.precedence_margin
         self.goal_timeout = instance.goal_timeout
 
     def evaluate(self, done: np.ndarray, pos: np.ndarray):
@@ -105,8 +111,8 @@ class BatchedRules:
         newly = np.isfinite(first_arrival) & ~done[None, :]
         finish_rel = first_arrival + self.service[None, :]
         # Task j's finisher is in order if each predecessor p was finished before this step,
-        # or in this step strictly before j's arrival.
-        before = newly[:, None, :] & (finish_rel[:, None, :] < first_arrival[:, :, None])
+        # or in this step strictly before j's arrival (by the instance's margin).
+        before = newly[:, None, :] & (finish_rel[:, None, :] + self.margin < first_arrival[:, :, None])
         in_order = (~self.pred[None, :, :] | done[None, None, :] | before).all(axis=2)
         valid = (in_order | ~newly).all(axis=1) & (nav <= self.goal_timeout).all(axis=1)
         finisher_mask = self.onehot & newly[:, None, :] & (finisher[:, None, :] == self.robot_index[None, :, None])

@@ -25,6 +25,9 @@ class SchedulingInstance:
 
     goal_timeout: a leg that takes longer fails in the environment (the robot stays where it
     was), so planners only use legs within it and reach farther goals over other goals.
+    precedence_margin: in plans, a task finished in the same step as a predecessor is reached
+    at least this long after the predecessor's finish (the rules ask only "after"), so that the
+    plan stays in order when real legs run late against each other (config/task_baselines.yaml).
     """
 
     n_robots: int
@@ -35,6 +38,7 @@ class SchedulingInstance:
     min_step: float = 1.0
     task_ids: Tuple[str, ...] = ()
     goal_timeout: float = INFINITE_TIME
+    precedence_margin: float = 0.0              # s
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "travel_rows", np.asarray(self.travel, dtype=float).tolist())
@@ -69,10 +73,11 @@ class SchedulingInstance:
         return [j for j in range(self.n_tasks) if not np.isfinite(chains[:, j]).any()]
 
     @staticmethod
-    def from_scenario(scenario, table, min_step: float, goal_timeout: float = INFINITE_TIME) -> "SchedulingInstance":
+    def from_scenario(scenario, table, min_step: float, goal_timeout: float = INFINITE_TIME,
+                      precedence_margin: float = 0.0) -> "SchedulingInstance":
         return SchedulingInstance(scenario.n_robots, scenario.n_tasks, np.array(table.nominal_time),
                                   tuple(t.service_time for t in scenario.tasks), tuple(scenario.predecessors),
-                                  min_step, tuple(t.id for t in scenario.tasks), goal_timeout)
+                                  min_step, tuple(t.id for t in scenario.tasks), goal_timeout, precedence_margin)
 
 
 @dataclass
@@ -107,6 +112,9 @@ class NominalRun:
         self.robot_tasks: List[List[int]] = [[] for _ in range(instance.n_robots)]
         self.joint_actions: List[List[Optional[int]]] = []
         self.stalled = False   # the last step finished no task (next_goals then takes ready tasks only)
+        # s, the least time between a predecessor's finish and its successor's arrival in one step
+        # (inf when no step finishes both): how late a leg may run before the plan loses its order
+        self.thinnest_margin = math.inf
 
     def preview(self, goals: Sequence[Optional[int]]) -> StepResolution:
         inst = self.instance
@@ -115,13 +123,18 @@ class NominalRun:
         reached = [g is not None and leg <= inst.goal_timeout for g, leg in zip(goals, legs)]
         nav = [leg if ok or g is None else inst.goal_timeout for g, leg, ok in zip(goals, legs, reached)]
         return resolve_step(goals, nav, reached, [0] * len(goals), self.finished,
-                            inst.predecessors, inst.service, INFINITE_TIME, inst.min_step)
+                            inst.predecessors, inst.service, INFINITE_TIME, inst.min_step, inst.precedence_margin)
 
     def apply(self, goals: Sequence[Optional[int]]) -> StepResolution:
         resolution = self.preview(goals)
         for r, g in enumerate(goals):
             if g is not None and resolution.reached[r]:
                 self.positions[r] = self.instance.n_robots + g
+        finish_at = {done.task: done.finish_time for done in resolution.finished}
+        for done in resolution.finished:
+            for pred in self.instance.predecessors[done.task]:
+                if pred in finish_at:
+                    self.thinnest_margin = min(self.thinnest_margin, done.reach_time - finish_at[pred])
         for done in resolution.finished:
             self.finished[done.task] = True
             self.robot_tasks[done.robot].append(done.task)
@@ -171,6 +184,12 @@ def first_hop(instance: SchedulingInstance, finished: Sequence[bool], start: int
     return None
 
 
+def _one_per_goal(goals: List[Optional[int]]) -> List[Optional[int]]:
+    """The goals with every robot but the first one sent to a goal waiting (None): a second robot
+    would find the first standing on that goal and fail to reach it."""
+    return [None if g is not None and g in goals[:r] else g for r, g in enumerate(goals)]
+
+
 def _ready(instance: SchedulingInstance, finished: Sequence[bool], task: int) -> bool:
     return not finished[task] and all(finished[p] for p in instance.predecessors[task])
 
@@ -179,7 +198,8 @@ def next_goals(run: NominalRun, robot_lists: Sequence[Sequence[int]]) -> Optiona
     """One step of carrying out per-robot ordered task lists from the run's state, logic-consistent.
 
     Each robot heads for the first open task of its list (over goals of finished tasks when that
-    leg is beyond the goal timeout); a robot whose arrival would come before a predecessor is
+    leg is beyond the goal timeout; of robots headed for one goal the first goes, the others
+    wait); a robot whose arrival would come before a predecessor is
     finished waits this step (None), repeatedly until the step is consistent. When that leaves
     every robot waiting (the lists order a task before a predecessor another robot holds
     later), each robot takes the first task of its list whose predecessors are all finished,
@@ -196,7 +216,7 @@ def next_goals(run: NominalRun, robot_lists: Sequence[Sequence[int]]) -> Optiona
         return first_hop(inst, finished, positions[robot], task)
 
     heads = [next((t for t in tasks if not finished[t]), None) for tasks in robot_lists]
-    goals = [None if h is None or run.stalled else toward(r, h) for r, h in enumerate(heads)]
+    goals = _one_per_goal([None if h is None or run.stalled else toward(r, h) for r, h in enumerate(heads)])
     while any(g is not None for g in goals):
         resolution = run.preview(goals)
         wrong = [r for r, g in enumerate(goals) if g is not None and not resolution.correct_order[r]]
@@ -213,6 +233,7 @@ def next_goals(run: NominalRun, robot_lists: Sequence[Sequence[int]]) -> Optiona
                     goals[r] = hop
                     taken.add(t)
                     break
+    goals = _one_per_goal(goals)
     if any(g is not None for g in goals):
         return goals
     chains = inst.chain_times()
@@ -221,7 +242,7 @@ def next_goals(run: NominalRun, robot_lists: Sequence[Sequence[int]]) -> Optiona
         candidates = sorted((chains[positions[r], inst.node(t)], r) for r in range(inst.n_robots) if goals[r] is None)
         for _, r in candidates:
             hop = toward(r, t)
-            if hop is not None:
+            if hop is not None and hop not in goals:
                 goals[r] = hop
                 break
     return goals if any(g is not None for g in goals) else None

@@ -84,11 +84,13 @@ class Reference:
                 "solver": self.solver, "seconds": self.seconds, "log": list(self.log)}
 
 
-def scheduling_instance(scenario: Scenario, min_step: float, goal_timeout: float = INFINITE_TIME) -> SchedulingInstance:
+def scheduling_instance(scenario: Scenario, min_step: float, goal_timeout: float = INFINITE_TIME,
+                        precedence_margin: float = 0.0) -> SchedulingInstance:
     """The scenario in nominal numbers: plans always come from the nominal travel times.
     ScenarioError naming the first task no robot can reach (every way to its goal, over other
     goals, has a leg beyond the goal timeout), so that no plan could ever finish it."""
-    instance = SchedulingInstance.from_scenario(scenario, scenario_travel_table(scenario), min_step, goal_timeout)
+    instance = SchedulingInstance.from_scenario(scenario, scenario_travel_table(scenario), min_step, goal_timeout,
+                                                precedence_margin)
     unreachable = instance.unreachable_tasks()
     if unreachable:
         task = scenario.tasks[unreachable[0]]

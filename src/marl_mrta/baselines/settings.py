@@ -32,6 +32,7 @@ class BaselineSettings:
     astar_max_batch: int           # A* serves a scenario with at most this many joint actions per state
     astar_max_tasks: int           # and at most this many tasks (its states grow as 2^n_tasks)
     cpsat: CpSatBudget
+    precedence_margin: float       # s between a predecessor's finish and a successor's arrival in one step
 
     def with_cpsat(self, time_limit: Optional[float] = None, workers: Optional[int] = None) -> "BaselineSettings":
         """These settings with the CP-SAT time limit and worker count replaced where given."""
@@ -68,6 +69,7 @@ def load_baseline_settings(path: Optional[Union[str, Path]] = None) -> BaselineS
         astar_max_batch=exact.integer("astar_max_batch", minimum=1),
         astar_max_tasks=exact.integer("astar_max_tasks", minimum=1, maximum=60),
         cpsat=budget,
+        precedence_margin=root.number("precedence_margin", minimum=0.0),
     )
     root.check_all_used()
     return settings

@@ -7,15 +7,17 @@ plan.simulate_joint_actions to the objective):
 
 - K decision steps; in each, every robot gets a task's goal or None. A goal may be any task,
   finished ones included (a robot may drive to a finished task's goal to be nearer its next
-  one), but not the goal it stands on (that only costs time) nor one beyond the goal timeout.
-  Robot r's node at the start of each step follows from its moves (a flow over the steps:
+  one), but not the goal it stands on (that only costs time) nor one beyond the goal timeout,
+  and no two robots get one goal in one step (the A*'s moves: the second would find the first
+  standing there). Robot r's node at the start of each step follows from its moves (a flow over the steps:
   `stay` and `move` literals per node).
 - A task is finished exactly once, in the step of its first arrival, by a robot sent there; a
   robot sent to an open task finishes it unless another arrives first; every robot sent to a
   task finished in that step arrives no earlier than its finisher (ties go to either robot:
   the arrival and so the step are the same, model/rules.py gives it to the lower index).
 - Order: a task is finished in the step of its predecessors' finish or later, and in the same
-  step only if each predecessor's finish (arrival + service) comes strictly before its arrival.
+  step only if each predecessor's finish (arrival + service) comes strictly before its arrival,
+  by the instance's precedence margin.
 - A step lasts at least min_step if any robot has a goal, and at least every robot's arrival
   plus, for its finisher, the service time. Unused steps (every robot None) last 0 and come last.
   The objective is the sum of the step durations.
@@ -129,6 +131,7 @@ def solve_step_model(instance: SchedulingInstance, budget: CpSatBudget, hint: Op
     model = cp_model.CpModel()
     leg = [[STEP_TIME.ticks(t) for t in row] for row in instance.travel_rows]
     service = [STEP_TIME.ticks(s) for s in instance.service]
+    margin = STEP_TIME.ticks(instance.precedence_margin)
     min_step = STEP_TIME.ticks(instance.min_step)
     horizon = STEP_TIME.ticks(upper) + 1
     longest = max(leg[a][n_r + j] for a in range(n_r + n_t) for j in range(n_t) if instance.leg_feasible(a, n_r + j))
@@ -184,6 +187,10 @@ def solve_step_model(instance: SchedulingInstance, budget: CpSatBudget, hint: Op
             model.Add(duration[k] >= nav + sum(service_terms))
             at = {b: sum(terms) for b, terms in into.items()}
     for k in range(steps):
+        for j in range(n_t):
+            sent = [goal[r, k, j] for r in range(n_r) if (r, k, j) in goal]
+            if len(sent) > 1:
+                model.Add(sum(sent) <= 1)
         model.Add(duration[k] >= min_step * used[k])
         model.Add(sum(g for (r, kk, j), g in goal.items() if kk == k) >= used[k])
     for j in range(n_t):
@@ -193,7 +200,7 @@ def solve_step_model(instance: SchedulingInstance, budget: CpSatBudget, hint: Op
         for p in preds:
             for k in range(steps):
                 model.Add(finish[j][k] <= finished_by[p][k])
-                model.Add(arrival[j] >= arrival[p] + service[p] + 1).OnlyEnforceIf([finish[j][k], finish[p][k]])
+                model.Add(arrival[j] >= arrival[p] + service[p] + margin + 1).OnlyEnforceIf([finish[j][k], finish[p][k]])
     makespan = sum(duration)
     model.Add(makespan <= horizon)
     model.Add(makespan >= STEP_TIME.floor(known_lower_bound))

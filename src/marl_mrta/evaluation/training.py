@@ -61,10 +61,10 @@ def offer_teacher_plan(runner: Runner, log: Callable[[str], None] = print) -> No
     plan = solve_ga(scheduling_instance(scenario, task.min_step, task.goal_timeout), load_baseline_settings().ga,
                     seed=runner.seed)
     seconds = time.perf_counter() - started
+    runner.wall_time += seconds   # planning is part of the run's training time
     if not (plan.complete and plan.logic_violations == 0):
         log(f"teacher {runner.config.teacher}: no complete schedule in {seconds:.1f} s; nothing offered")
-        runner.wall_time += seconds
         return
-    runner.offer_plan(plan.makespan, plan.joint_actions, seconds)
+    runner.offer_plan(plan.makespan, plan.joint_actions)
     log(f"teacher {runner.config.teacher}: a schedule of {plan.makespan:.2f} s offered to self-imitation "
         f"({seconds:.1f} s)")

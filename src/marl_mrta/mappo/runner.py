@@ -20,6 +20,7 @@ from __future__ import annotations
 import copy
 import json
 import math
+import os
 import random
 import signal
 import threading
@@ -477,15 +478,14 @@ class Runner:
         self.history["updates"].append(metrics)
         return metrics
 
-    def offer_plan(self, makespan: float, joint_actions: Sequence[Sequence[Optional[int]]], seconds: float) -> None:
+    def offer_plan(self, makespan: float, joint_actions: Sequence[Sequence[Optional[int]]]) -> None:
         """A planner's schedule for self-imitation (config teacher; evaluation/training.py), offered
-        as an episode of seed 0; the `seconds` of planning count as training wall time."""
+        as an episode of seed 0."""
         if self.self_imitation is None:   # off in this run (logged at the start)
             return
         none = self.pool.n_actions - 1
         self.self_imitation.offer(makespan, 0, [[none if a is None else int(a) for a in joint] for joint in joint_actions],
                                   source=f"the {self.config.teacher} teacher's schedule")
-        self.wall_time += seconds
 
     def _imitate_best(self, finished: Sequence[EpisodeSummary]) -> None:
         """Self-imitation (config.self_imitation_epochs): the best sampled episode so far, taught
@@ -603,6 +603,10 @@ class Runner:
             for sig in (signal.SIGINT, signal.SIGTERM):
                 previous[sig] = signal.signal(sig, self._handle_stop_signal)
         session_start, session_steps = time.perf_counter(), self.env_steps
+        cores = os.cpu_count() or 1
+        if c.train_threads > cores:
+            self.log(f"train_threads {c.train_threads} is more than this machine's {cores} cores: the updates share "
+                     "them and get slower, not faster")
         metrics: Dict[str, float] = {}
         reached = False
         abandoned = False

@@ -10,6 +10,8 @@ Rules (docs/task_allocation.md, "Step rules"):
   robot arriving there later finishes nothing (wasted trip, never a double finish).
 - An attempt is in correct order if every predecessor of the task was finished strictly before
   the robot arrived (or, for an attempt that did not arrive, before the attempt ended).
+  Planners may ask for more: `order_margin` seconds between the predecessor's finish and the
+  arrival, so that their plans stay in order when real legs run late (the environment asks 0).
 - The step lasts until the last robot with a goal has arrived (plus its service time) or
   failed, and at least `min_step` seconds (the whole step when every robot chose None, or
   when a robot was sent to where it already stands). Never beyond the time limit.
@@ -55,7 +57,7 @@ def _finish_order(task: FinishedTask) -> Tuple[float, int]:
 def resolve_step(goals: Sequence[Optional[int]], nav_times: Sequence[float], reached: Sequence[bool],
                  collisions: Sequence[int], finished_before: Sequence[bool],
                  predecessors: Sequence[Sequence[int]], service_times: Sequence[float],
-                 time_limit: float, min_step: float) -> StepResolution:
+                 time_limit: float, min_step: float, order_margin: float = 0.0) -> StepResolution:
     """Apply the step rules to one joint action and its navigation outcome."""
     n_robots = len(goals)
     # First arrival at each task that is still open.
@@ -89,7 +91,7 @@ def resolve_step(goals: Sequence[Optional[int]], nav_times: Sequence[float], rea
             if finished_before[pred]:
                 continue
             done_at = finish_rel.get(pred)
-            if done_at is None or not done_at < t:
+            if done_at is None or not done_at + order_margin < t:
                 correct_order[robot] = False
                 break
         if task in finish_rel and first_robot[task] == robot:
