@@ -1,7 +1,9 @@
 """What the rostests of the stock navigation stack share (nav_stock_test.py,
-task_stock_amcl_test.py): the skip when the stock packages are missing (``~stock_available``
-false, derived by the .test file), every ERROR line the graph logs (/rosout_agg), and that a node
-of the graph is the stock one (not the built-in drop-in under the same name)."""
+task_stock_amcl_test.py, task_stock_lockstep_test.py): the skip when the stock packages are
+missing (``~stock_available`` false, derived by the .test file), every ERROR line the graph logs
+(/rosout_agg), that a node of the graph is the stock one (not the built-in drop-in under the same
+name), and exact episodes through the evaluation command."""
+import json
 import os
 import threading
 import time
@@ -12,6 +14,8 @@ import rosgraph
 import rospy
 from rosgraph_msgs.msg import Log
 from roslib.packages import find_node
+
+from marl_mrta.apps.evaluate import main as evaluate_main
 
 UNAVAILABLE = "stock navigation not available (rospack finds no move_base, amcl or fake_localization; make stock-nav NAV_SRC=...)"
 
@@ -43,6 +47,18 @@ class StockGraphCase(unittest.TestCase):
         time.sleep(1.0)  # wall: the last messages of /rosout_agg arrive
         with self.lock:
             self.assertEqual([], self.errors, "logged at ERROR level:\n  " + "\n  ".join(self.errors))
+
+    def assert_exact_episodes_complete_in_order(self, episodes, out_dir):
+        """The evaluation command runs `episodes` exact episodes through the task manager: every
+        one completes every task, in precedence order (logic-consistent)."""
+        out = os.path.join(out_dir, "exact.json")
+        code = evaluate_main(["--executor", "ros", "--method", "exact", "--episodes", str(episodes), "--out", out,
+                              "--quiet"])
+        self.assertEqual(code, 0, "evaluate failed")
+        with open(out) as f:
+            summary = json.load(f)["results"][0]["summary"]
+        self.assertEqual(summary["complete_pct"], 100.0, summary)
+        self.assertEqual(summary["logic_consistent_pct"], 100.0, summary)
 
     def assert_runs_stock(self, node, package, node_type):
         """`node` (a graph name) is a process of `package`'s `node_type` executable: the stock

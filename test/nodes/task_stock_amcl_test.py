@@ -7,7 +7,6 @@ logs at ERROR level or above (/rosout_agg). Nothing here asserts speed.
 
 Without the stock packages (``~stock_available`` false) the test is skipped, and the skip is
 written into the JUnit result file as such (nav_goals_test's rosrun_marking_skips)."""
-import json
 import math
 import os
 import shutil
@@ -21,7 +20,6 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from nav_goals_test import rosrun_marking_skips  # noqa: E402
 from stock_test_helpers import StockGraphCase  # noqa: E402
 
-from marl_mrta.apps.evaluate import main as evaluate_main  # noqa: E402
 from marl_mrta.model.scenario import load_scenario  # noqa: E402
 from marl_mrta.ros.env_client import RosTaskEnvClient  # noqa: E402
 
@@ -57,13 +55,7 @@ class StockAmclEpisodeTest(StockGraphCase):
         for robot in ROBOTS:
             self.assert_runs_stock("/%s/move_base" % robot, "move_base", "move_base")
             self.assert_runs_stock("/%s/amcl" % robot, "amcl", "amcl")
-        out = os.path.join(self.tmp, "exact.json")
-        code = evaluate_main(["--executor", "ros", "--method", "exact", "--episodes", "1", "--out", out, "--quiet"])
-        self.assertEqual(code, 0, "evaluate failed")
-        with open(out) as f:
-            summary = json.load(f)["results"][0]["summary"]
-        self.assertEqual(summary["complete_pct"], 100.0, summary)
-        self.assertEqual(summary["logic_consistent_pct"], 100.0, summary)
+        self.assert_exact_episodes_complete_in_order(1, self.tmp)
         self.assert_no_error_logged()
 
 

@@ -133,10 +133,20 @@ def test_evaluation_launch_files_pass_navigation_lockstep_and_noise_on(launch_ar
     assert params["/simulator/publish_localization"] is False
     assert params["/simulator/lockstep"] is False
     assert params["/simulator/noise_profile"] == "measured_tb3"
-    # nav:=stock alone: real time without lock-step (stock move_base does not answer ticks).
+    assert not any(name.endswith("/stock_lockstep") for name in nodes)
+    # nav:=stock alone: real time without lock-step.
     nodes, params = load(*launch_args, "nav:=stock")
     assert nodes["/tb3_0/move_base"].package == "move_base"
     assert (params["/simulator/lockstep"], params["/simulator/rtf"]) == (False, 1.0)
+    assert not any(name.endswith("/stock_lockstep") for name in nodes)
+    # nav:=stock lockstep:=true: a stock_lockstep node per robot answers the ticks for its move_base.
+    nodes, params = load(*launch_args, "nav:=stock", "lockstep:=true", "rtf:=0")
+    assert params["/simulator/lockstep"] is True
+    assert (nodes["/tb3_1/stock_lockstep"].package, nodes["/tb3_1/stock_lockstep"].type) == ("marl_mrta", "stock_lockstep")
+    assert sorted(name for name in nodes if name.endswith("/stock_lockstep")) == ["/tb3_0/stock_lockstep",
+                                                                                  "/tb3_1/stock_lockstep"]
+    nodes, _ = load(*launch_args, "lockstep:=true")   # the built-in move_base answers its ticks itself
+    assert not any(name.endswith("/stock_lockstep") for name in nodes)
 
 
 def test_nodelets_put_the_simulator_and_every_builtin_move_base_in_one_manager():

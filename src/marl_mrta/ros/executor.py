@@ -227,7 +227,19 @@ class RosExecutor:
             watched = [i for i in pending if self.bases[i].result is None and self._reports_goal_ends(i)]
             self._run_until(deadline, watched)
             stale = StaleSuccessGuard(t0)
-            if self.clock.wait_until(lambda: stale.all_ended(self, goals, pending), deadline):
+            watching = bool(watched)
+
+            def ended() -> bool:
+                nonlocal watching
+                done = stale.all_ended(self, goals, pending)
+                if watching and stale.resent:
+                    # A goal sent once more ends after the goal ends the simulator watches for (or
+                    # it counted the stale one): it would pause before that goal's end.
+                    self._run_until(deadline)
+                    watching = False
+                return done
+
+            if self.clock.wait_until(ended, deadline) and watching:
                 self._await_early_pause(watched, deadline)
             self._pause(True)
             self.sim.wait_caught_up(*self.sim.step(0))   # every controller has seen the last tick
@@ -311,13 +323,18 @@ class RosExecutor:
         self.clock.wait_until(lambda: self.clock.now() >= pause_stamp - 1e-9, deadline)
 
     def _advance(self, ticks: int) -> Tuple[int, float]:
-        """`ticks` more ticks: stepped when paused, waited for on a shared clock. Returns the
-        tick and sim time reached."""
-        if not self.shared_clock:
+        """`ticks` more ticks: stepped when paused (or run through the lock-step with
+        advance_in_lockstep), waited for on a shared clock. Returns the tick and sim time reached."""
+        if not self.shared_clock and not (self.settings.advance_in_lockstep and ticks > 1):
             return self.sim.step(ticks)
         tick, _ = self.sim.step(0)
         target = tick + ticks
         stamp = target / self.sim.config.physics_rate
+        if not self.shared_clock:
+            # Stock move_base's costmaps take a burst of ticks for stale transforms ("Could not
+            # get robot pose"): the ticks run through the lock-step, where its stock_lockstep
+            # node answers each, and the simulator pauses on the target tick.
+            self.sim.run_until(target)
         self.clock.wait_until(lambda: self.clock.now() >= stamp - 1e-9)
         return target, stamp
 

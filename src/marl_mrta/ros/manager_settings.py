@@ -39,6 +39,7 @@ class RosExecutorSettings:
     simulator_lost_after: float = 3.0   # s of wall time without an answer -> episode aborted (per ROBOTS_PER_LOST_AFTER)
     graph_wait: float = 60.0            # s of wall time to wait for the simulator and move_base at start
     align_period: float = 1.0           # s of sim time: steps start on multiples of it (0: no alignment)
+    advance_in_lockstep: bool = False   # the paused simulator runs ticks through its lock-step instead of stepping them at once
     map_frame: str = "map"
     localization: str = "ground_truth"  # ground_truth (the simulator, fake_localization) | amcl: re-initialised on reset
     localization_wait: float = 10.0     # s of sim time for amcl_pose to agree with a reset pose
@@ -98,6 +99,7 @@ def read_manager_settings(params: Dict[str, Any], namespace: str,
         simulator_lost_after=p.number("simulator_lost_after", above=0.0),
         graph_wait=p.number("graph_wait", above=0.0),
         align_period=p.number("align_period", minimum=0.0),
+        advance_in_lockstep=p.boolean("advance_in_lockstep"),
         map_frame=p.string("map_frame", allow_empty=False),
         localization=p.choice("localization", LOCALIZATIONS),
         localization_wait=p.number("localization_wait", above=0.0),

@@ -1,0 +1,116 @@
+"""stock_lockstep: answers the simulator's lock-step ticks for one robot's stock move_base.
+
+Started in the robot's namespace by launch/include/robot_nav.launch with nav:=stock and
+lockstep:=true. The rule (ros/stock_lockstep.py): on a control tick of an active goal the
+simulator waits for the robot's cmd_vel (at most ~command_wait wall seconds); between control
+ticks it runs on, and without a goal after ~idle_wait. Parameters (wall seconds): ~command_wait
+(default 0.5), ~result_wait (0.05), ~idle_wait (0.005); move_base's controller_frequency and the simulator's
+physics_rate are read from their nodes. Subscribes to cmd_vel, move_base/goal, move_base/result
+and /simulator/tick; publishes /simulator/lockstep_ack.
+"""
+import threading
+import time
+
+import rospy
+from geometry_msgs.msg import Twist
+from actionlib_msgs.msg import GoalStatusArray
+from move_base_msgs.msg import MoveBaseActionGoal, MoveBaseActionResult
+
+from marl_mrta.msg import LockstepAck, SimTick
+from marl_mrta.ros.stock_lockstep import StockLockstepRule
+
+SIMULATOR = "/simulator"
+
+
+class StockLockstepNode:
+    def __init__(self, robot: str, rule: StockLockstepRule):
+        self.robot = robot
+        self.rule = rule
+        self._changed = threading.Condition()
+        self._ack_pub = rospy.Publisher(SIMULATOR + "/lockstep_ack", LockstepAck, queue_size=100)
+        rospy.Subscriber("cmd_vel", Twist, self._on_command, queue_size=100, tcp_nodelay=True)
+        rospy.Subscriber("move_base/goal", MoveBaseActionGoal, self._on_goal, queue_size=10, tcp_nodelay=True)
+        rospy.Subscriber("move_base/result", MoveBaseActionResult, self._on_result, queue_size=10, tcp_nodelay=True)
+        self._status_sub = rospy.Subscriber("move_base/status", GoalStatusArray, lambda _msg: None, queue_size=1)
+        self._up = False
+
+    def start(self) -> None:
+        # An ack sent before the simulator listens would be lost.
+        while self._ack_pub.get_num_connections() == 0 and not rospy.is_shutdown():
+            time.sleep(0.05)
+        rospy.Subscriber(SIMULATOR + "/tick", SimTick, self._on_tick, queue_size=10, tcp_nodelay=True)
+
+    def _move_base_up(self) -> bool:
+        """move_base's action server starts last, once its costmaps are made; they wait for
+        transforms on sim time, so until then the ticks are answered at real-time pace."""
+        if not self._up and self._status_sub.get_num_connections() > 0:
+            self._up = True
+            self._status_sub.unregister()
+            rospy.loginfo("%s: move_base is up: lock-step from sim time %.2f s", rospy.get_name(), rospy.get_time())
+        return self._up
+
+    def _on_command(self, msg: Twist) -> None:
+        with self._changed:
+            self.rule.on_command(msg.linear.x == 0.0 and msg.angular.z == 0.0)
+            self._changed.notify_all()
+
+    def _on_goal(self, _msg: MoveBaseActionGoal) -> None:
+        with self._changed:
+            rospy.logdebug("goal at sim time %.2f s", rospy.get_time())
+            self.rule.on_goal()
+            self._changed.notify_all()
+
+    def _on_result(self, msg: MoveBaseActionResult) -> None:
+        with self._changed:
+            rospy.logdebug("result %d stamped %.2f s, at sim time %.2f s", msg.status.status, msg.header.stamp.to_sec(), rospy.get_time())
+            self.rule.on_result(msg.header.stamp.to_sec())
+            self._changed.notify_all()
+
+    def _on_tick(self, msg: SimTick) -> None:
+        if not self._move_base_up():
+            time.sleep(self.rule.tick_period)
+            self._publish(LockstepAck(robot=self.robot, tick=msg.tick, cmd_vel_count=self.rule.commands))
+            return
+        with self._changed:
+            timeouts = self.rule.timeouts
+            self.rule.on_tick(msg.tick, msg.stamp.to_sec(), time.monotonic())
+            answer = self.rule.answer(time.monotonic())
+            while answer is None and not rospy.is_shutdown():
+                self._changed.wait(self.rule.wait_left(time.monotonic()) + 1e-3)
+                answer = self.rule.answer(time.monotonic())
+            if self.rule.timeouts > timeouts:
+                rospy.logdebug("tick %d: no cmd_vel from move_base within %.2f s; answered without one",
+                               msg.tick, self.rule.command_wait)
+        if answer is not None:
+            self._publish(LockstepAck(robot=self.robot, tick=answer.tick, cmd_vel_count=answer.cmd_vel_count,
+                                      next_stamp=rospy.Time.from_sec(answer.next_stamp),
+                                      goal_end_tick=answer.goal_end_tick))
+
+    def _publish(self, ack: LockstepAck) -> None:
+        try:
+            self._ack_pub.publish(ack)
+        except rospy.ROSException:
+            pass   # the node is going down: rospy closes its topics before is_shutdown() says so
+
+
+def main() -> int:
+    rospy.init_node("stock_lockstep")
+    robot = rospy.get_namespace().strip("/")
+    controller_frequency = rospy.get_param("move_base/controller_frequency", 20.0)   # move_base's own default
+    physics_rate = rospy.get_param(SIMULATOR + "/physics_rate", 20.0)
+    try:
+        rule = StockLockstepRule(1.0 / float(controller_frequency), float(physics_rate),
+                                 float(rospy.get_param("~command_wait", 0.5)), float(rospy.get_param("~result_wait", 0.05)),
+                                 float(rospy.get_param("~idle_wait", 0.005)))
+    except (TypeError, ValueError, ZeroDivisionError) as error:
+        rospy.logfatal("%s: move_base/controller_frequency %r, %s/physics_rate %r, ~command_wait, ~result_wait, ~idle_wait: %s",
+                       rospy.get_name(), controller_frequency, SIMULATOR, physics_rate, error)
+        return 2
+    node = StockLockstepNode(robot, rule)
+    rospy.loginfo("%s: answering lock-step ticks for %s's stock move_base (control period %.3f s, command wait %.2f s)",
+                  rospy.get_name(), robot, rule.control_period, rule.command_wait)
+    node.start()
+    rospy.spin()
+    if rule.timeouts:
+        rospy.loginfo("%s: %d control ticks answered without a cmd_vel", rospy.get_name(), rule.timeouts)
+    return 0
