@@ -145,6 +145,9 @@ def test_evaluation_launch_files_pass_navigation_lockstep_and_noise_on(launch_ar
     assert (nodes["/tb3_1/stock_lockstep"].package, nodes["/tb3_1/stock_lockstep"].type) == ("marl_mrta", "stock_lockstep")
     assert sorted(name for name in nodes if name.endswith("/stock_lockstep")) == ["/tb3_0/stock_lockstep",
                                                                                   "/tb3_1/stock_lockstep"]
+    assert params["/tb3_0/stock_lockstep/wait_for_amcl"] is False
+    _, params = load(*launch_args, "nav:=stock", "lockstep:=true", "rtf:=0", "localization:=amcl")
+    assert params["/tb3_1/stock_lockstep/wait_for_amcl"] is True   # amcl's map -> odom is waited for too
     nodes, _ = load(*launch_args, "lockstep:=true")   # the built-in move_base answers its ticks itself
     assert not any(name.endswith("/stock_lockstep") for name in nodes)
 

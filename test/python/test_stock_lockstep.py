@@ -120,3 +120,21 @@ def test_bad_settings_are_refused():
         StockLockstepRule(0.0, RATE)
     with pytest.raises(ValueError):
         StockLockstepRule(PERIOD, RATE, command_wait=-1.0)
+
+
+def test_with_a_particle_filter_each_answer_waits_for_its_transform_of_the_latest_scan():
+    r = StockLockstepRule(PERIOD, RATE, command_wait=0.5, result_wait=0.05, idle_wait=0.0,
+                          localization_tolerance=0.5)
+    r.on_tick(0, 0.0, 0.0, scan_stamp=0.0)
+    assert r.answer(0.0) is not None              # no scan and no transform yet: nothing to wait for
+    r.on_localization(0.5)                        # amcl answered the scan of 0.0 s (post-dated 0.5 s)
+    r.on_tick(4, 4 / RATE, 1.0, scan_stamp=4 / RATE)
+    assert r.answer(1.0) is None                  # the scan of tick 4 is not answered yet
+    assert r.wait_left(1.0) == pytest.approx(0.5)
+    r.on_localization(4 / RATE + 0.5)
+    assert r.answer(1.01).tick == 4
+    r.on_tick(5, 5 / RATE, 2.0, scan_stamp=4 / RATE)
+    assert r.answer(2.0).tick == 5                # no new scan since
+    r.on_tick(8, 8 / RATE, 3.0, scan_stamp=8 / RATE)
+    assert r.answer(3.49) is None
+    assert r.answer(3.5).tick == 8                # a filter that does not answer holds a tick at most command_wait

@@ -3,8 +3,9 @@
 Started in the robot's namespace by launch/include/robot_nav.launch with nav:=stock and
 lockstep:=true. The rule (ros/stock_lockstep.py): on a control tick of an active goal the
 simulator waits for the robot's cmd_vel (at most ~command_wait wall seconds); between control
-ticks it runs on, and without a goal after ~idle_wait. Parameters (wall seconds): ~command_wait
-(default 0.5), ~result_wait (0.05), ~idle_wait (0.005); move_base's controller_frequency and the simulator's
+ticks it runs on, and without a goal after ~idle_wait. With ~wait_for_amcl (localization:=amcl)
+every answer also waits for amcl's map -> odom of the latest scan. Parameters (wall seconds):
+~command_wait (default 0.5), ~result_wait (0.05), ~idle_wait (0.005); ~wait_for_amcl (false); move_base's controller_frequency and the simulator's
 physics_rate are read from their nodes. Subscribes to cmd_vel, move_base/goal, move_base/result
 and /simulator/tick; publishes /simulator/lockstep_ack.
 """
@@ -15,6 +16,7 @@ import rospy
 from geometry_msgs.msg import Twist
 from actionlib_msgs.msg import GoalStatusArray
 from move_base_msgs.msg import MoveBaseActionGoal, MoveBaseActionResult
+from tf2_msgs.msg import TFMessage
 
 from marl_mrta.msg import LockstepAck, SimTick
 from marl_mrta.ros.stock_lockstep import StockLockstepRule
@@ -33,6 +35,10 @@ class StockLockstepNode:
         rospy.Subscriber("move_base/result", MoveBaseActionResult, self._on_result, queue_size=10, tcp_nodelay=True)
         self._status_sub = rospy.Subscriber("move_base/status", GoalStatusArray, lambda _msg: None, queue_size=1)
         self._up = False
+        if rule.localization_tolerance > 0.0:   # stock amcl: its map -> odom is waited for
+            self._filter_frames = (rospy.get_param("amcl/global_frame_id", "map"),
+                                   rospy.get_param("amcl/odom_frame_id", robot + "/odom"))
+            rospy.Subscriber("/tf", TFMessage, self._on_tf, queue_size=100, tcp_nodelay=True)
 
     def start(self) -> None:
         # An ack sent before the simulator listens would be lost.
@@ -54,6 +60,13 @@ class StockLockstepNode:
             self.rule.on_command(msg.linear.x == 0.0 and msg.angular.z == 0.0)
             self._changed.notify_all()
 
+    def _on_tf(self, msg: TFMessage) -> None:
+        for transform in msg.transforms:
+            if (transform.header.frame_id, transform.child_frame_id) == self._filter_frames:
+                with self._changed:
+                    self.rule.on_localization(transform.header.stamp.to_sec())
+                    self._changed.notify_all()
+
     def _on_goal(self, _msg: MoveBaseActionGoal) -> None:
         with self._changed:
             rospy.logdebug("goal at sim time %.2f s", rospy.get_time())
@@ -73,7 +86,7 @@ class StockLockstepNode:
             return
         with self._changed:
             timeouts = self.rule.timeouts
-            self.rule.on_tick(msg.tick, msg.stamp.to_sec(), time.monotonic())
+            self.rule.on_tick(msg.tick, msg.stamp.to_sec(), time.monotonic(), msg.last_scan_stamp.to_sec())
             answer = self.rule.answer(time.monotonic())
             while answer is None and not rospy.is_shutdown():
                 self._changed.wait(self.rule.wait_left(time.monotonic()) + 1e-3)
@@ -99,9 +112,11 @@ def main() -> int:
     controller_frequency = rospy.get_param("move_base/controller_frequency", 20.0)   # move_base's own default
     physics_rate = rospy.get_param(SIMULATOR + "/physics_rate", 20.0)
     try:
+        # amcl's own default transform_tolerance is 0.1 s; TurtleBot3's file sets 0.5.
+        tolerance = float(rospy.get_param("amcl/transform_tolerance", 0.1)) if rospy.get_param("~wait_for_amcl", False) else 0.0
         rule = StockLockstepRule(1.0 / float(controller_frequency), float(physics_rate),
                                  float(rospy.get_param("~command_wait", 0.5)), float(rospy.get_param("~result_wait", 0.05)),
-                                 float(rospy.get_param("~idle_wait", 0.005)))
+                                 float(rospy.get_param("~idle_wait", 0.005)), tolerance)
     except (TypeError, ValueError, ZeroDivisionError) as error:
         rospy.logfatal("%s: move_base/controller_frequency %r, %s/physics_rate %r, ~command_wait, ~result_wait, ~idle_wait: %s",
                        rospy.get_name(), controller_frequency, SIMULATOR, physics_rate, error)

@@ -10,7 +10,11 @@ seconds have passed: move_base also has cycles without a command, while it plans
 costmaps), and lets it run through the ticks in between. Without a goal it answers every tick
 after `idle_wait` wall seconds: move_base's costmaps update in threads of their own, which
 nothing waits for, and a burst of ticks (the task manager stepping to a whole second after a
-reset) would otherwise leave them behind the robots' poses when the next goals come. The result of a goal is reported on the tick of the result's stamp, as the built-in
+reset) would otherwise leave them behind the robots' poses when the next goals come. With a
+particle filter (stock amcl, `localization_tolerance` > 0) every answer also waits, at most
+`command_wait`, until the filter's map -> odom of the latest scan has come (amcl post-dates it
+by its transform_tolerance): at full speed it otherwise falls behind the controller, whose map ->
+odom lookups then fail. The result of a goal is reported on the tick of the result's stamp, as the built-in
 move_base does. What this keeps deterministic, and what not: docs/navigation.md.
 """
 from __future__ import annotations
@@ -39,10 +43,13 @@ class StockLockstepRule:
     waiting at most wait_left(wall_now) between calls for a message to come."""
 
     def __init__(self, control_period: float, physics_rate: float, command_wait: float = 0.5,
-                 result_wait: float = 0.05, idle_wait: float = 0.005):
+                 result_wait: float = 0.05, idle_wait: float = 0.005, localization_tolerance: float = 0.0):
         if not (control_period > 0.0 and physics_rate > 0.0 and min(command_wait, result_wait, idle_wait) >= 0.0):
             raise ValueError("control_period and physics_rate must be > 0, the waits >= 0")
         self.idle_wait = idle_wait
+        self.localization_tolerance = localization_tolerance   # 0: no particle filter to wait for
+        self.localized_stamp = 0.0        # latest map -> odom stamp of the filter (0: none yet)
+        self._scan_stamp = 0.0            # the latest scan at or before the current tick
         self.control_period = control_period
         self.physics_rate = physics_rate
         self.command_wait = command_wait
@@ -76,6 +83,17 @@ class StockLockstepRule:
         self.control_stamp = None
         self.goal_end_tick = max(self.goal_end_tick, self.tick_of(stamp))
 
+    def on_localization(self, stamp: float) -> None:
+        """The particle filter sent map -> odom stamped `stamp`."""
+        self.localized_stamp = max(self.localized_stamp, stamp)
+
+    def _localized(self) -> bool:
+        """The filter has answered the latest scan (or there is none to wait for: no filter, no
+        transform from it yet, or no scan yet)."""
+        if self.localization_tolerance <= 0.0 or self.localized_stamp == 0.0 or self._scan_stamp == 0.0:
+            return True
+        return self.localized_stamp >= self._scan_stamp + self.localization_tolerance - STAMP_SLACK
+
     def on_command(self, is_zero: bool) -> None:
         self.commands += 1
         self._last_command_zero = is_zero
@@ -89,11 +107,12 @@ class StockLockstepRule:
     def tick_of(self, stamp: float) -> int:
         return int(math.ceil(stamp * self.physics_rate - 1e-6))
 
-    def on_tick(self, tick: int, stamp: float, wall_now: float) -> None:
+    def on_tick(self, tick: int, stamp: float, wall_now: float, scan_stamp: float = 0.0) -> None:
         if tick == self._tick:
             return   # re-sent: answered again as before
         self._tick, self._answered = tick, None
         self._last_stamp = stamp
+        self._scan_stamp = scan_stamp
         due = self.goal_active and (self.control_stamp is None or stamp >= self.control_stamp - STAMP_SLACK)
         self._waiting = due
         self._deadline = wall_now + self.command_wait
@@ -103,6 +122,8 @@ class StockLockstepRule:
     def answer(self, wall_now: float) -> Optional[TickAnswer]:
         """The answer to the current tick, or None while its command is awaited."""
         if self._tick is None:
+            return None
+        if self._answered is None and not self._localized() and wall_now < self._deadline:
             return None
         if self._answered is not None:   # a re-sent tick: what came since counts too
             self._answered = replace(self._answered, cmd_vel_count=self.commands, goal_end_tick=self.goal_end_tick)
@@ -135,6 +156,8 @@ class StockLockstepRule:
         return self._answered
 
     def wait_left(self, wall_now: float) -> float:
+        if not self._localized():
+            return max(0.0, self._deadline - wall_now)
         if not self._waiting:
             return max(0.0, self._idle_until - wall_now)
         deadline = self._deadline if self._result_deadline is None else min(self._deadline, self._result_deadline)
