@@ -5,9 +5,10 @@ lockstep:=true. The rule (ros/stock_lockstep.py): on a control tick of an active
 simulator waits for the robot's cmd_vel (at most ~command_wait wall seconds); between control
 ticks it runs on, and without a goal after ~idle_wait. With ~wait_for_amcl (localization:=amcl)
 every answer also waits for amcl's map -> odom of the latest scan. Parameters (wall seconds):
-~command_wait (default 0.5), ~result_wait (0.05), ~idle_wait (0.005); ~wait_for_amcl (false); move_base's controller_frequency and the simulator's
-physics_rate are read from their nodes. Subscribes to cmd_vel, move_base/goal, move_base/result
-and /simulator/tick; publishes /simulator/lockstep_ack.
+~command_wait (default 0.5), ~result_wait (0.05), ~idle_wait (0.005); ~wait_for_amcl (false).
+move_base's controller_frequency, amcl's transform_tolerance and the simulator's physics_rate
+are read from their nodes. Subscribes to cmd_vel, move_base/goal, move_base/result and
+/simulator/tick (and /tf with amcl); publishes /simulator/lockstep_ack.
 """
 import threading
 import time
@@ -18,6 +19,7 @@ from actionlib_msgs.msg import GoalStatusArray
 from move_base_msgs.msg import MoveBaseActionGoal, MoveBaseActionResult
 from tf2_msgs.msg import TFMessage
 
+from marl_mrta.common.config import ConfigError, node_parameters
 from marl_mrta.msg import LockstepAck, SimTick
 from marl_mrta.ros.stock_lockstep import StockLockstepRule
 
@@ -106,20 +108,30 @@ class StockLockstepNode:
             pass   # the node is going down: rospy closes its topics before is_shutdown() says so
 
 
+def read_rule() -> StockLockstepRule:
+    """The rule from this node's parameters and those of move_base, amcl and the simulator (the
+    defaults are those nodes' own); a bad value raises ConfigError naming it."""
+    own = node_parameters(rospy.get_param("~", {}), rospy.get_name())
+    move_base = node_parameters(rospy.get_param("move_base", {}), rospy.resolve_name("move_base"))
+    simulator = node_parameters(rospy.get_param(SIMULATOR, {}), SIMULATOR)
+    amcl = node_parameters(rospy.get_param("amcl", {}), rospy.resolve_name("amcl"))
+    wait_for_amcl = own.boolean("wait_for_amcl", False)
+    rule = StockLockstepRule(1.0 / move_base.number("controller_frequency", 20.0, above=0.0),
+                             simulator.number("physics_rate", 20.0, above=0.0),
+                             own.number("command_wait", 0.5, minimum=0.0), own.number("result_wait", 0.05, minimum=0.0),
+                             own.number("idle_wait", 0.005, minimum=0.0),
+                             amcl.number("transform_tolerance", 0.1, above=0.0) if wait_for_amcl else 0.0)
+    own.check_all_used()
+    return rule
+
+
 def main() -> int:
     rospy.init_node("stock_lockstep")
     robot = rospy.get_namespace().strip("/")
-    controller_frequency = rospy.get_param("move_base/controller_frequency", 20.0)   # move_base's own default
-    physics_rate = rospy.get_param(SIMULATOR + "/physics_rate", 20.0)
     try:
-        # amcl's own default transform_tolerance is 0.1 s; TurtleBot3's file sets 0.5.
-        tolerance = float(rospy.get_param("amcl/transform_tolerance", 0.1)) if rospy.get_param("~wait_for_amcl", False) else 0.0
-        rule = StockLockstepRule(1.0 / float(controller_frequency), float(physics_rate),
-                                 float(rospy.get_param("~command_wait", 0.5)), float(rospy.get_param("~result_wait", 0.05)),
-                                 float(rospy.get_param("~idle_wait", 0.005)), tolerance)
-    except (TypeError, ValueError, ZeroDivisionError) as error:
-        rospy.logfatal("%s: move_base/controller_frequency %r, %s/physics_rate %r, ~command_wait, ~result_wait, ~idle_wait: %s",
-                       rospy.get_name(), controller_frequency, SIMULATOR, physics_rate, error)
+        rule = read_rule()
+    except ConfigError as error:
+        rospy.logfatal("%s", error)
         return 2
     node = StockLockstepNode(robot, rule)
     rospy.loginfo("%s: answering lock-step ticks for %s's stock move_base (control period %.3f s, command wait %.2f s)",

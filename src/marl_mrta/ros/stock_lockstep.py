@@ -14,8 +14,8 @@ reset) would otherwise leave them behind the robots' poses when the next goals c
 particle filter (stock amcl, `localization_tolerance` > 0) every answer also waits, at most
 `command_wait`, until the filter's map -> odom of the latest scan has come (amcl post-dates it
 by its transform_tolerance): at full speed it otherwise falls behind the controller, whose map ->
-odom lookups then fail. The result of a goal is reported on the tick of the result's stamp, as the built-in
-move_base does. What this keeps deterministic, and what not: docs/navigation.md.
+odom lookups then fail. The result of a goal is reported on the tick of the result's stamp, as
+the built-in move_base does. What this keeps deterministic, and what not: docs/navigation.md.
 """
 from __future__ import annotations
 
@@ -46,14 +46,14 @@ class StockLockstepRule:
                  result_wait: float = 0.05, idle_wait: float = 0.005, localization_tolerance: float = 0.0):
         if not (control_period > 0.0 and physics_rate > 0.0 and min(command_wait, result_wait, idle_wait) >= 0.0):
             raise ValueError("control_period and physics_rate must be > 0, the waits >= 0")
-        self.idle_wait = idle_wait
-        self.localization_tolerance = localization_tolerance   # 0: no particle filter to wait for
-        self.localized_stamp = 0.0        # latest map -> odom stamp of the filter (0: none yet)
-        self._scan_stamp = 0.0            # the latest scan at or before the current tick
         self.control_period = control_period
         self.physics_rate = physics_rate
         self.command_wait = command_wait
         self.result_wait = result_wait
+        self.idle_wait = idle_wait
+        self.localization_tolerance = localization_tolerance   # 0: no particle filter to wait for
+        self.localized_stamp = 0.0        # latest map -> odom stamp of the filter (0: none yet)
+        self._scan_stamp = 0.0            # the latest scan at or before the current tick
         self.commands = 0                 # cmd_vel messages seen since start
         self.goal_active = False
         self.goal_end_tick = 0
@@ -117,7 +117,7 @@ class StockLockstepRule:
         self._waiting = due
         self._deadline = wall_now + self.command_wait
         self._idle_until = wall_now + self.idle_wait if not self.goal_active else wall_now
-        self._result_deadline: Optional[float] = None
+        self._result_deadline = None
 
     def answer(self, wall_now: float) -> Optional[TickAnswer]:
         """The answer to the current tick, or None while its command is awaited."""
