@@ -481,11 +481,16 @@ Trajectory DwaPlanner::findBestPath(const Pose2D& pose, const Velocity2D& veloci
   std::vector<Candidate> candidates;
   candidates.reserve(samples.size());
   last_sample_count_ = 0;
+  last_discards_.fill(0);
+  // Without a valid sample there is no bound, so every sample is scored whole and the counts
+  // below are complete exactly when they are reported (no valid sample).
+  const auto discarded = [this](double code) { ++last_discards_[std::min<size_t>(7, static_cast<size_t>(-code))]; };
   for (size_t i = 0; i < samples.size(); ++i) {
     if (!generateTrajectory(pose, samples[i], rollout_, yaw_cache_[i % n_theta])) continue;
     ++last_sample_count_;
     if (best_cost >= 0.0 && i == seed) continue;
     const double partial = scoreWithoutObstacles(rollout_, best_cost);
+    if (partial < 0.0) discarded(partial);
     if (partial >= 0.0 && (best_cost < 0.0 || partial <= best_cost)) candidates.push_back({partial, i});
   }
   // A heap with the lowest (partial cost, sample) on top.
@@ -502,7 +507,10 @@ Trajectory DwaPlanner::findBestPath(const Pose2D& pose, const Velocity2D& veloci
     if (config_.occdist_scale != 0.0) {
       generateTrajectory(pose, samples[next.sample], rollout_, yaw_cache_[next.sample % n_theta]);
       const double obstacle = obstacleCost(rollout_);
-      if (obstacle < 0.0) continue;
+      if (obstacle < 0.0) {
+        discarded(obstacle);
+        continue;
+      }
       cost += obstacle * config_.occdist_scale;
     }
     if (best_cost < 0.0 || cost < best_cost || (cost == best_cost && next.sample < best_sample)) {
@@ -515,6 +523,12 @@ Trajectory DwaPlanner::findBestPath(const Pose2D& pose, const Velocity2D& veloci
   if (best_cost >= 0.0) {
     generateTrajectory(pose, samples[best_sample], best, yaw_cache_[best_sample % n_theta]);
     best.cost = best_cost;
+  } else if (oscillation_.restricted()) {
+    // Nothing the restriction allows is valid (e.g. only backward, with an obstacle behind).
+    // dwa_local_planner drops the restriction with move_base's next re-plan (setPlan resets the
+    // flags); this planner keeps it across re-plans of one route, so it drops it here, where it
+    // would otherwise hold the robot still until the goal is aborted.
+    resetOscillationFlags();
   }
   updateOscillationFlags(pose, best);
   return best;

@@ -1,6 +1,9 @@
 #include "marl_mrta/nav/local_controller.h"
 
+#include <array>
 #include <cmath>
+#include <sstream>
+#include <string>
 
 namespace marl_mrta {
 namespace nav {
@@ -33,6 +36,23 @@ ControlResult checkedCommand(DwaPlanner& planner, const Pose2D& pose, const Velo
     result.message = collision_message;
   }
   return result;
+}
+
+// " (N samples: k by <critic>, ...)": what discarded the samples, for the log line.
+std::string discardReasons(size_t samples, const std::array<size_t, 8>& discards) {
+  static const char* const kCritic[8] = {"", "", "unreachable from the path", "on an obstacle of the path's grid",
+                                         "off the local map", "oscillation", "footprint on a lethal cell",
+                                         "centre off the map"};
+  std::ostringstream out;
+  out << " (" << samples << " samples";
+  const char* separator = ": ";
+  for (size_t code = 2; code < discards.size(); ++code) {
+    if (discards[code] == 0) continue;
+    out << separator << discards[code] << " " << kCritic[code];
+    separator = ", ";
+  }
+  out << ")";
+  return out.str();
 }
 
 }  // namespace
@@ -159,7 +179,7 @@ ControlResult LocalController::computeVelocityCommands(const CostGrid& costmap, 
   }
   const Trajectory best = planner_.findBestPath(pose, velocity);
   if (best.cost < 0.0) {
-    result.message = "every velocity sample was discarded (obstacle too close or off the path)";
+    result.message = "every velocity sample was discarded" + discardReasons(planner_.lastSampleCount(), planner_.lastDiscards());
     return result;
   }
   result.ok = true;

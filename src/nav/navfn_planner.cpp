@@ -367,10 +367,11 @@ PlanResult NavfnPlanner::finishPlan(const CostGrid& costmap, const Pose2D& start
     result.message = "no path could be traced down the potential from " + formatPoint(best);
     return result;
   }
-  // Traced from the goal: reverse so the path starts at the robot. Cell coordinates + 0.5 = centres.
+  // Traced from the goal: reverse so the path starts at the robot. Cell coordinates are placed as
+  // navfn_ros places them (origin + index x resolution, a cell's corner, not its centre): the local
+  // planner follows this path, and half a cell decides which side of a wall end it swings.
   for (size_t i = path_x.size(); i-- > 0;) {
-    result.path.push_back(Pose2D{costmap.originX() + (path_x[i] + 0.5) * res,
-                                 costmap.originY() + (path_y[i] + 0.5) * res, 0.0});
+    result.path.push_back(Pose2D{costmap.originX() + path_x[i] * res, costmap.originY() + path_y[i] * res, 0.0});
   }
   result.path.push_back(best);
   result.status = PlanResult::Status::kOk;

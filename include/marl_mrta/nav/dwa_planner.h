@@ -6,6 +6,7 @@
 // valid sample wins. No valid sample => cost < 0 and a zero command.
 #pragma once
 
+#include <array>
 #include <string>
 #include <vector>
 
@@ -123,6 +124,11 @@ class DwaPlanner {
   double scoreTrajectory(const Trajectory& trajectory, double best_cost) const;
   double footprintCost(const Pose2D& pose) const { return footprintCostAt(*costmap_, footprint_, pose); }
   size_t lastSampleCount() const { return last_sample_count_; }
+  // When findBestPath() found no valid sample: how many samples each critic discarded, by the
+  // negative code scoreTrajectory() returns (index 2: unreachable from the path, 3: on an
+  // obstacle cell of the path's grid, 4: off the local map, 5: oscillation, 6: footprint on a
+  // lethal cell, 7: the robot's centre off the map).
+  const std::array<size_t, 8>& lastDiscards() const { return last_discards_; }
 
  private:
   struct OscillationFlags {
@@ -161,6 +167,7 @@ class DwaPlanner {
   OscillationFlags oscillation_;
   Pose2D prev_stationary_pose_;
   size_t last_sample_count_ = 0;
+  std::array<size_t, 8> last_discards_{};
   Trajectory rollout_;  // findBestPath's rollout buffer, reused from sample to sample
   std::vector<YawSequence> yaw_cache_;  // findBestPath's, by position in the vθ samples
 };

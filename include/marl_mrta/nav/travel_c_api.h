@@ -23,7 +23,7 @@ typedef struct MarlMrtaTravel MarlMrtaTravel;
 MarlMrtaTravel* marl_mrta_travel_plan(const char* map_yaml, const char* nav_config_dir, int n, const double* poses,
                                       char* error, int error_size, int* failed_node);
 
-/* Points of the path from pose a to pose b (a != b): navfn's path, from the centre of a's cell
+/* Points of the path from pose a to pose b (a != b): navfn's path, from the corner of a's cell
  * to b's position. 0 for indices out of range or a == b. */
 int marl_mrta_travel_path_size(const MarlMrtaTravel* travel, int a, int b);
 

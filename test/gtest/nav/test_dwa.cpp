@@ -310,6 +310,31 @@ TEST(Dwa, ReplanningKeepsTheOscillationRestrictionANewRouteClearsIt) {
   EXPECT_GT(command(ahead, PlanUpdate::kNewRoute).x, 0.0) << "a new route keeps an old restriction";
 }
 
+TEST(Dwa, ARestrictionThatLeavesNoValidSampleIsDropped) {
+  // Forward, then backward: only backward is allowed. With a wall right behind the robot no
+  // allowed sample is valid; dwa_local_planner's next re-plan would reset the flags, so the
+  // planner drops the restriction itself and the next cycle drives forward (before, the robot
+  // stood still until move_base aborted the goal: turtlebot3_world, docs/navigation.md).
+  const Pose2D pose{2.0, 1.5, 0.0};
+  auto free_room = costmapOf(roomMap(80, 60, {}));
+  auto wall_behind = costmapOf(roomMap(80, 60, {{34, 0, 36, 60}}));  // x 1.70-1.80 m
+  LocalController controller(burgerDwa());
+  const auto ahead = straightPlan(pose, {3.0, 1.5, 0.0});
+  const auto behind = straightPlan(pose, {1.0, 1.5, 0.0});
+  const Transform2D identity{};
+  using PlanUpdate = LocalController::PlanUpdate;
+  auto control = [&](const LayeredCostmap& costmap, const std::vector<Pose2D>& plan, PlanUpdate update) {
+    controller.setPlan(plan, update);
+    return controller.computeVelocityCommands(costmap.costmap(), costmap.footprint(), pose, Velocity2D{}, identity);
+  };
+  ASSERT_GT(control(*free_room, ahead, PlanUpdate::kNewRoute).command.x, 0.0);
+  ASSERT_LT(control(*free_room, behind, PlanUpdate::kReplan).command.x, 0.0);
+  EXPECT_FALSE(control(*wall_behind, ahead, PlanUpdate::kReplan).ok) << "forward should still be forbidden here";
+  const ControlResult next = control(*wall_behind, ahead, PlanUpdate::kReplan);
+  ASSERT_TRUE(next.ok) << next.message;
+  EXPECT_GT(next.command.x, 0.0);
+}
+
 TEST(Transform2D, BetweenMapsOnePoseOntoTheOther) {
   const Pose2D in_map{1.0, 2.0, 0.5}, in_odom{-0.3, 0.7, 2.0};
   const Transform2D t = Transform2D::between(in_map, in_odom);

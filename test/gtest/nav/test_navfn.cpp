@@ -100,6 +100,22 @@ TEST(Navfn, PathAvoidsLethalAndInscribedCellsWithTurtlebotInflation) {
   }
 }
 
+TEST(Navfn, PathPointsSitOnCellCornersAsStockNavfnPlacesThem) {
+  // navfn_ros converts the traced cell coordinates as origin + index x resolution: the path's
+  // first point is the corner of the start's cell, not its centre. DWA follows this path, and
+  // half a cell decides which side of a wall end it swings (docs/navigation.md).
+  auto costmap = costmapOf(wallRoom());
+  const CostGrid& grid = costmap->costmap();
+  NavfnPlanner planner{NavfnConfig{}};
+  const Pose2D start{0.33, 0.31, 0.0}, goal{2.7, 0.3, 0.0};
+  const PlanResult plan = planner.makePlan(grid, start, goal);
+  ASSERT_TRUE(plan.ok()) << plan.message;
+  unsigned sx, sy;
+  ASSERT_TRUE(grid.worldToMap(start.x, start.y, sx, sy));
+  EXPECT_NEAR(grid.originX() + sx * grid.resolution(), plan.path.front().x, 1e-6);
+  EXPECT_NEAR(grid.originY() + sy * grid.resolution(), plan.path.front().y, 1e-6);
+}
+
 TEST(Navfn, LengthWithinTenPercentOfExact8ConnectedPath) {
   auto costmap = costmapOf(wallRoom(), 0.15, 3.0);
   NavfnPlanner planner{NavfnConfig{}};

@@ -156,7 +156,9 @@ TEST(Travel, AFreeStraightLineIsDrivenAlmostStraight) {
   for (auto [a, b] : {std::make_pair(0, 1), std::make_pair(1, 0)}) {
     const double length = lengthOf(pathOf(planned.travel, a, b));
     EXPECT_GT(length, (y1 - y0) * 0.99);
-    EXPECT_LT(length, (y1 - y0) * 1.03);
+    // navfn's points sit on cell corners: the path's first point is up to half a cell's
+    // diagonal (0.035 m) from the start.
+    EXPECT_LT(length, (y1 - y0) * 1.03 + 0.036);
   }
   marl_mrta_travel_free(planned.travel);
 }

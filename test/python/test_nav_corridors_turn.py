@@ -1,0 +1,25 @@
+"""The built-in move_base round a wall end of the corridors map (bench_nav_vs_stock's drawn leg 2
+there), in lock-step: deterministic and without the stock stack. The robot reverses along the
+bottom corridor and turns round the wall end at (5.0, 1.0) into the corridor above. While the
+built-in navfn put its path points on cell centres, half a cell north-east of stock navfn's (cell
+corners), DWA turned early, stood under the wall end and timed out at 120 s; stock in lock-step
+reaches the goal in 49-55 s (docs/navigation.md, "Built-in against stock")."""
+import pytest
+
+pytest.importorskip("rospkg", reason="ROS not available")
+bench = pytest.importorskip("marl_mrta.apps.bench_nav_vs_stock")
+from marl_mrta.evaluation.nav_comparison import MAX_RATIO_GOAL, Leg  # noqa: E402
+
+ROUND_THE_WALL_END = Leg((1.575, 0.525, 2.5385), (0.325, 1.675, -1.1669), 600763903)
+#: s of sim time stock move_base takes in lock-step (the slowest of four runs).
+STOCK_LOCKSTEP_TIME = 54.8
+
+
+def test_builtin_turns_round_the_wall_end_as_stock_does(tmp_path):
+    records, error = bench.run_stack("builtin", bench.map_files()["corridors"], [ROUND_THE_WALL_END], 1, "simulator", "ideal",
+                                     rtf=0.0, goal_timeout=120.0, workdir=str(tmp_path), tag="corridors",
+                                     lockstep=True)
+    assert error == ""
+    assert len(records) == 1
+    assert records[0].succeeded, records[0].outcome
+    assert records[0].time <= MAX_RATIO_GOAL * STOCK_LOCKSTEP_TIME, f"round the wall end in {records[0].time:.1f} s"
