@@ -534,6 +534,15 @@ Trajectory DwaPlanner::findBestPath(const Pose2D& pose, const Velocity2D& veloci
   return best;
 }
 
+const char* DwaPlanner::discardReason(size_t code) {
+  // By the codes the critics return above: -2 / -3 (path grid), -4 (map), -5 (oscillation),
+  // -6 / -7 (footprint).
+  static const char* const kReasons[8] = {"", "", "unreachable from the path", "on an obstacle of the path's grid",
+                                          "off the local map", "oscillation", "footprint on a lethal cell",
+                                          "centre off the map"};
+  return code < 8 ? kReasons[code] : "";
+}
+
 bool DwaPlanner::checkTrajectory(const Pose2D& pose, const Velocity2D& /*velocity*/, const Velocity2D& sample) {
   resetOscillationFlags();
   Trajectory trajectory;

@@ -40,15 +40,12 @@ ControlResult checkedCommand(DwaPlanner& planner, const Pose2D& pose, const Velo
 
 // " (N samples: k by <critic>, ...)": what discarded the samples, for the log line.
 std::string discardReasons(size_t samples, const std::array<size_t, 8>& discards) {
-  static const char* const kCritic[8] = {"", "", "unreachable from the path", "on an obstacle of the path's grid",
-                                         "off the local map", "oscillation", "footprint on a lethal cell",
-                                         "centre off the map"};
   std::ostringstream out;
   out << " (" << samples << " samples";
   const char* separator = ": ";
   for (size_t code = 2; code < discards.size(); ++code) {
     if (discards[code] == 0) continue;
-    out << separator << discards[code] << " " << kCritic[code];
+    out << separator << discards[code] << " " << DwaPlanner::discardReason(code);
     separator = ", ";
   }
   out << ")";

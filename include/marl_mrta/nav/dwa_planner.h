@@ -124,11 +124,11 @@ class DwaPlanner {
   double scoreTrajectory(const Trajectory& trajectory, double best_cost) const;
   double footprintCost(const Pose2D& pose) const { return footprintCostAt(*costmap_, footprint_, pose); }
   size_t lastSampleCount() const { return last_sample_count_; }
-  // When findBestPath() found no valid sample: how many samples each critic discarded, by the
-  // negative code scoreTrajectory() returns (index 2: unreachable from the path, 3: on an
-  // obstacle cell of the path's grid, 4: off the local map, 5: oscillation, 6: footprint on a
-  // lethal cell, 7: the robot's centre off the map).
+  // When findBestPath() found no valid sample: how many samples were discarded with each
+  // negative code scoreTrajectory() returns (the index; discardReason() names it).
   const std::array<size_t, 8>& lastDiscards() const { return last_discards_; }
+  // What a discard code (2-7, the negated return of scoreTrajectory()) means, for log lines.
+  static const char* discardReason(size_t code);
 
  private:
   struct OscillationFlags {
