@@ -32,7 +32,7 @@ void LayeredCostmap::setFootprint(const Polygon& footprint) {
 
 void LayeredCostmap::updateMap(const Pose2D& robot) {
   if (rolling_window_) {
-    costmap_.updateOrigin(robot.x - costmap_.sizeMetersX() / 2.0, robot.y - costmap_.sizeMetersY() / 2.0);
+    costmap_.centreWindowOn(robot.x, robot.y);
   }
   last_window_ = CellWindow{};
   if (layers_.empty() || costmap_.sizeX() == 0 || costmap_.sizeY() == 0) return;

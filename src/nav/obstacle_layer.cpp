@@ -140,7 +140,7 @@ void ObstacleLayer::markObstacles(const Observation& observation, Bounds& bounds
 }
 
 void ObstacleLayer::updateBounds(const Pose2D& robot, Bounds& bounds) {
-  if (rolling_) grid_.updateOrigin(robot.x - grid_.sizeMetersX() / 2.0, robot.y - grid_.sizeMetersY() / 2.0);
+  if (rolling_) grid_.centreWindowOn(robot.x, robot.y);
   if (!extra_bounds_.empty()) {
     bounds.touch(extra_bounds_.min_x, extra_bounds_.min_y);
     bounds.touch(extra_bounds_.max_x, extra_bounds_.max_y);

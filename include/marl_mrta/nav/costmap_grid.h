@@ -74,6 +74,13 @@ class CostGrid {
   // Moves the grid so that its origin is (new_origin_x, new_origin_y) snapped to whole cells,
   // keeping the cells that stay inside and resetting the rest (rolling window).
   void updateOrigin(double new_origin_x, double new_origin_y);
+  // A rolling window's move to the robot at (x, y). costmap_2d centres its window with
+  // getSizeInMetersX(), which reaches the last cell's centre, (size - 0.5) * resolution, not its
+  // far edge; the same span here puts the window on the same cells as costmap_2d's (DWA's
+  // distance grids and local goal depend on where the window ends).
+  void centreWindowOn(double x, double y) {
+    updateOrigin(x - (size_x_ - 0.5) * resolution_ / 2.0, y - (size_y_ - 0.5) * resolution_ / 2.0);
+  }
 
   // Bresenham line from (x0, y0) to (x1, y1), both in the grid, at most max_length cells
   // long; visit(index) is called for every cell including both ends (costmap_2d's raytrace).

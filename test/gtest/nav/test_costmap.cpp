@@ -82,6 +82,32 @@ TEST(CostGrid, UpdateOriginKeepsOverlap) {
   EXPECT_EQ(1u, count);  // the cell at (0, 0) left the window
 }
 
+TEST(CostGrid, RollingWindowSitsWhereCostmap2dPutsIt) {
+  // costmap_2d: new origin = robot - getSizeInMetersX() / 2 with getSizeInMetersX() =
+  // (size - 1 + 0.5) * resolution, moved by whole cells truncated towards zero. A window one
+  // cell off changes DWA's distance grids and local goal (turtlebot3_world, leg 2).
+  CostGrid grid(60, 60, 0.05, 0.0, 0.0);
+  double stock_x = 0.0, stock_y = 0.0;
+  auto stock_move = [](double& origin, double robot) {
+    const int cells = static_cast<int>((robot - (60 - 1 + 0.5) * 0.05 / 2 - origin) / 0.05);
+    origin += cells * 0.05;
+  };
+  const double robots[][2] = {{0.0, 0.0}, {-0.0161, 0.0}, {-0.0367, 0.0006}, {-0.0778, 0.0028},
+                              {0.52, -0.31}, {1.013, 2.7}, {-3.4, -0.025}, {-3.41, 0.0}};
+  for (const auto& robot : robots) {
+    grid.centreWindowOn(robot[0], robot[1]);
+    stock_move(stock_x, robot[0]);
+    stock_move(stock_y, robot[1]);
+    EXPECT_NEAR(stock_x, grid.originX(), 1e-9) << "robot x " << robot[0];
+    EXPECT_NEAR(stock_y, grid.originY(), 1e-9) << "robot y " << robot[1];
+  }
+  grid.resize(60, 60, 0.05, 0.0, 0.0);
+  grid.centreWindowOn(0.0, 0.0);
+  EXPECT_NEAR(-1.45, grid.originX(), 1e-9) << "at rest on the origin: 29 cells back, not 30";
+  grid.centreWindowOn(-0.0161, 0.0);
+  EXPECT_NEAR(-1.5, grid.originX(), 1e-9);
+}
+
 TEST(Footprint, BurgerRadii) {
   const Polygon burger = burgerFootprint();
   EXPECT_NEAR(0.041, inscribedRadius(burger), 1e-9);
@@ -273,7 +299,7 @@ TEST(ObstacleLayer, RollingWindowKeepsObstaclesInPlace) {
   costmap.addLayer(std::move(layer));
   obstacles->addObservation(0, laserScanToObservation(scanOf({1.0f, 3.4f, 3.4f, 3.4f}), SensorPose{}, config.sources[0]));
   costmap.updateMap(Pose2D{0.0, 0.0, 0.0});
-  EXPECT_NEAR(-1.5, costmap.costmap().originX(), 1e-9);
+  EXPECT_NEAR(-1.45, costmap.costmap().originX(), 1e-9);  // as costmap_2d (CostGrid.RollingWindow...)
   costmap.updateMap(Pose2D{0.5, 0.2, 0.0});
   EXPECT_NEAR(-1.0, costmap.costmap().originX(), 1e-9);
   unsigned mx, my;
