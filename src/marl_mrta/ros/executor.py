@@ -37,6 +37,7 @@ from marl_mrta.ros.localization_link import LocalizationLink
 from marl_mrta.ros.move_base_link import MoveBaseLink, await_accepted, cancel_running, send_goals
 from marl_mrta.ros.sim_clock import SimClock, SimulatorLost, call_bounded, wait_wall
 from marl_mrta.ros.sim_link import SimulatorLink
+from marl_mrta.ros.ticks import first_tick_at
 
 
 #: s of sim time between the requests for an update without motion while amcl has not answered a
@@ -274,7 +275,7 @@ class RosExecutor:
         try:
             tick, now = self.sim.step(0)
             rate = self.sim.config.physics_rate
-            ticks = int(math.ceil((self._step_start + duration - now) * rate - 1e-6))
+            ticks = first_tick_at(self._step_start + duration - now, rate)
             if ticks > 0:
                 self._advance(ticks)
             self._settle(align=False)
@@ -300,7 +301,7 @@ class RosExecutor:
         where the simulator pauses by itself; on a shared clock time runs anyway. With `watched`
         robots it pauses earlier, on the first aligned tick after the last of their goals ended."""
         if not self.shared_clock:
-            self.sim.run_until(int(math.ceil(stamp * self.sim.config.physics_rate - 1e-6)),
+            self.sim.run_until(first_tick_at(stamp, self.sim.config.physics_rate),
                                [self.namespaces[i] for i in watched], self._align_ticks())
 
     def _reports_goal_ends(self, robot: int) -> bool:

@@ -19,9 +19,10 @@ the built-in move_base does. What this keeps deterministic, and what not: docs/n
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, replace
 from typing import Optional
+
+from marl_mrta.ros.ticks import first_tick_at
 
 # A tick's stamp and a control time computed from another stamp may differ in the last
 # nanoseconds; this is far below the physics tick.
@@ -105,7 +106,7 @@ class StockLockstepRule:
         return 1.0 / self.physics_rate
 
     def tick_of(self, stamp: float) -> int:
-        return int(math.ceil(stamp * self.physics_rate - 1e-6))
+        return first_tick_at(stamp, self.physics_rate)
 
     def on_tick(self, tick: int, stamp: float, wall_now: float, scan_stamp: float = 0.0) -> None:
         if tick == self._tick:

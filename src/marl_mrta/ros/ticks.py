@@ -1,0 +1,11 @@
+"""The simulator's physics ticks in sim time (ROS-free): one rule for the executor and the
+stock_lockstep nodes."""
+from __future__ import annotations
+
+import math
+
+
+def first_tick_at(stamp: float, physics_rate: float) -> int:
+    """The first physics tick at or after `stamp` s of sim time. A microsecond of slack keeps a
+    stamp that sits on a tick, but carries float error, on that tick and not the next."""
+    return int(math.ceil(stamp * physics_rate - 1e-6))
