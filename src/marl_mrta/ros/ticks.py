@@ -6,6 +6,6 @@ import math
 
 
 def first_tick_at(stamp: float, physics_rate: float) -> int:
-    """The first physics tick at or after `stamp` s of sim time. A microsecond of slack keeps a
-    stamp that sits on a tick, but carries float error, on that tick and not the next."""
+    """The first physics tick at or after `stamp` s of sim time. A millionth of a tick of slack
+    keeps a stamp that sits on a tick, but carries float error, on that tick and not the next."""
     return int(math.ceil(stamp * physics_rate - 1e-6))
