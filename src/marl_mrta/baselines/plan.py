@@ -184,10 +184,15 @@ def first_hop(instance: SchedulingInstance, finished: Sequence[bool], start: int
     return None
 
 
+def _claimed(goal: int, goals: Sequence[Optional[int]]) -> bool:
+    """Whether some robot of `goals` is already sent to `goal`: a goal takes one robot, since a
+    second would find the first standing on it and fail to reach it."""
+    return goal in goals
+
+
 def _one_per_goal(goals: List[Optional[int]]) -> List[Optional[int]]:
-    """The goals with every robot but the first one sent to a goal waiting (None): a second robot
-    would find the first standing on that goal and fail to reach it."""
-    return [None if g is not None and g in goals[:r] else g for r, g in enumerate(goals)]
+    """The goals with every robot but the first one sent to a goal waiting (None)."""
+    return [None if g is not None and _claimed(g, goals[:r]) else g for r, g in enumerate(goals)]
 
 
 def _ready(instance: SchedulingInstance, finished: Sequence[bool], task: int) -> bool:
@@ -242,7 +247,7 @@ def next_goals(run: NominalRun, robot_lists: Sequence[Sequence[int]]) -> Optiona
         candidates = sorted((chains[positions[r], inst.node(t)], r) for r in range(inst.n_robots) if goals[r] is None)
         for _, r in candidates:
             hop = toward(r, t)
-            if hop is not None and hop not in goals:
+            if hop is not None and not _claimed(hop, goals):
                 goals[r] = hop
                 break
     return goals if any(g is not None for g in goals) else None
