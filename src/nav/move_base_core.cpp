@@ -118,7 +118,7 @@ void MoveBaseCore::setGoal(const Pose2D& goal, double now) {
   trigger_ = Trigger::kPlanning;
   recovery_index_ = 0;
   recovery_running_ = false;
-  have_plan_ = false;
+  plan_pending_ = false;
   last_valid_control_ = last_valid_plan_ = last_oscillation_reset_ = now;
   next_plan_time_ = now;
   planning_retries_ = 0;
@@ -134,7 +134,7 @@ void MoveBaseCore::resetState() {
   recovery_index_ = 0;
   recovery_running_ = false;
   trigger_ = Trigger::kPlanning;
-  have_plan_ = false;
+  plan_pending_ = false;
 }
 
 void MoveBaseCore::updateCostmaps(double now, const Pose2D& pose_global, const Pose2D& pose_local, bool force) {
@@ -172,17 +172,15 @@ void MoveBaseCore::runPlanner(const CycleInput& in, CycleOutput& out) {
   const double period = config_.planner_frequency > 0.0 ? 1.0 / config_.planner_frequency : 0.0;
   next_plan_time_ = in.now + period - 1e-9;
   if (result.ok()) {
-    plan_ = result.path;
-    have_plan_ = true;
     last_valid_plan_ = in.now;
     planning_retries_ = 0;
     out.new_plan = true;
-    out.plan = plan_;
+    out.plan = result.path;
+    pending_plan_ = std::move(result.path);
+    plan_pending_ = true;
     // Planning state: after a goal or a recovery behavior; controlling: periodic re-planning.
-    controller_.setPlan(plan_, state_ == MoveBaseState::kPlanning ? LocalController::PlanUpdate::kNewRoute
-                                                                   : LocalController::PlanUpdate::kReplan);
-    if (trigger_ == Trigger::kPlanning) recovery_index_ = 0;
-    state_ = MoveBaseState::kControlling;
+    pending_update_ = state_ == MoveBaseState::kPlanning ? LocalController::PlanUpdate::kNewRoute
+                                                         : LocalController::PlanUpdate::kReplan;
     return;
   }
   last_failure_ = result;
@@ -213,6 +211,13 @@ void MoveBaseCore::runPlanner(const CycleInput& in, CycleOutput& out) {
   }
 }
 
+void MoveBaseCore::handOverPendingPlan() {
+  controller_.setPlan(pending_plan_, pending_update_);
+  plan_pending_ = false;
+  if (trigger_ == Trigger::kPlanning) recovery_index_ = 0;
+  if (state_ == MoveBaseState::kPlanning) state_ = MoveBaseState::kControlling;
+}
+
 CycleOutput MoveBaseCore::runCycle(const CycleInput& in) {
   CycleOutput out;
   if (state_ == MoveBaseState::kIdle) return out;
@@ -230,6 +235,7 @@ CycleOutput MoveBaseCore::runCycle(const CycleInput& in) {
     out.message = "Sensor data is out of date, we're not going to allow commanding of the base for safety";
     return out;
   }
+  if (plan_pending_) handOverPendingPlan();
   const bool plan_due = (state_ == MoveBaseState::kPlanning && in.now >= next_plan_time_) ||
                         (state_ == MoveBaseState::kControlling && config_.planner_frequency > 0.0 &&
                          in.now >= next_plan_time_);
@@ -272,14 +278,15 @@ CycleOutput MoveBaseCore::runCycle(const CycleInput& in) {
         state_ = MoveBaseState::kClearing;
         trigger_ = Trigger::kControlling;
       } else {
-        // No valid command now: stop and plan again.
+        // No valid command now: stop and plan again, at once (move_base wakes its planner
+        // thread here), for the next cycle.
         last_valid_plan_ = in.now;
         planning_retries_ = 0;
-        next_plan_time_ = in.now;
         state_ = MoveBaseState::kPlanning;
         out.publish_command = true;
         out.command = {};
         out.message = "DWA planner failed to produce path: " + control.message;
+        runPlanner(in, out);
       }
       break;
     }

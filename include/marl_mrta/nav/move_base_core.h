@@ -4,7 +4,9 @@
 // States as move_base: PLANNING (waiting for a plan) -> CONTROLLING (following it) ->
 // CLEARING (running the next recovery behaviour, then PLANNING again). The planner runs
 // inside the cycle (at planner_frequency while controlling; on every cycle, or at
-// planner_frequency, while planning), so a cycle is deterministic given its inputs.
+// planner_frequency, while planning), so a cycle is deterministic given its inputs. A plan
+// reaches the controller at the next cycle, as move_base's planner thread hands its plan over:
+// the cycle that woke the thread has already read the controller's plan.
 // A goal ends with "Goal reached." or one of move_base's abort messages.
 #pragma once
 
@@ -78,6 +80,7 @@ class MoveBaseCore {
  private:
   void resetState();
   void runPlanner(const CycleInput& input, CycleOutput& out);
+  void handOverPendingPlan();
   bool goalInStaticObstacle() const;
   std::unique_ptr<RecoveryBehavior> makeRecovery(const RecoveryBehaviorConfig& config);
 
@@ -93,8 +96,9 @@ class MoveBaseCore {
   size_t recovery_index_ = 0;
   bool recovery_running_ = false;
   Pose2D goal_;
-  std::vector<Pose2D> plan_;
-  bool have_plan_ = false;
+  std::vector<Pose2D> pending_plan_;  // made in the previous cycle, not yet the controller's
+  bool plan_pending_ = false;
+  LocalController::PlanUpdate pending_update_ = LocalController::PlanUpdate::kNewRoute;
   PlanResult last_failure_;
   double last_valid_plan_ = 0.0, last_valid_control_ = 0.0, last_oscillation_reset_ = 0.0;
   double next_plan_time_ = 0.0;

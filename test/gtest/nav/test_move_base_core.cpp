@@ -152,3 +152,23 @@ TEST(MoveBaseCore, CancelStopsCommanding) {
   EXPECT_FALSE(out.publish_command);
   EXPECT_EQ(CycleOutput::Outcome::kNone, out.outcome);
 }
+
+TEST(MoveBaseCore, APlanReachesTheControllerAtTheNextCycle) {
+  // move_base's planner thread hands a plan over to the control loop, whose cycle that woke the
+  // thread has already read the controller's plan: the first command follows the plan's cycle.
+  Harness h(doorRoom(), {0.5, 0.5, 0.0});
+  h.core.setGoal({3.4, 0.6, 0.0}, h.now);
+  const CycleOutput planned = h.cycle();
+  EXPECT_TRUE(planned.new_plan);
+  EXPECT_FALSE(planned.publish_command);
+  EXPECT_EQ(MoveBaseState::kPlanning, h.core.state());
+  const CycleOutput first_control = h.cycle();
+  EXPECT_FALSE(first_control.new_plan);
+  EXPECT_TRUE(first_control.publish_command);
+  EXPECT_FALSE(first_control.local_plan.empty()) << "the controller follows the plan of the cycle before";
+  EXPECT_EQ(MoveBaseState::kControlling, h.core.state());
+  // A re-plan while controlling (5 Hz, every second cycle) is followed from the cycle after it.
+  const CycleOutput replanned = h.cycle();
+  EXPECT_TRUE(replanned.new_plan);
+  EXPECT_TRUE(replanned.publish_command);
+}
