@@ -441,6 +441,40 @@ void DwaPlanner::updateOscillationFlags(const Pose2D& pose, const Trajectory& ch
   }
 }
 
+std::vector<Trajectory> DwaPlanner::exploreSamples(const Pose2D& pose, const Velocity2D& velocity) const {
+  std::vector<Trajectory> explored;
+  for (const Velocity2D& sample : velocitySamples(velocity)) {
+    Trajectory rollout;
+    if (!generateTrajectory(pose, sample, rollout)) continue;
+    rollout.cost = scoreTrajectory(rollout, -1.0);
+    explored.push_back(std::move(rollout));
+  }
+  return explored;
+}
+
+std::vector<DwaPlanner::CellCosts> DwaPlanner::cellCosts() const {
+  std::vector<CellCosts> cells;
+  if (costmap_ == nullptr) return cells;
+  const double res = costmap_->resolution();
+  for (unsigned mx = 0; mx < costmap_->sizeX(); ++mx) {  // dwa_local_planner's order
+    for (unsigned my = 0; my < costmap_->sizeY(); ++my) {
+      const double path = path_grid_.distance(mx, my);
+      const double goal = goal_grid_.distance(mx, my);
+      const uint8_t occupancy = costmap_->cost(mx, my);
+      if (path == path_grid_.obstacleCosts() || path == path_grid_.unreachableCellCosts() ||
+          occupancy >= kInscribedInflated) {
+        continue;
+      }
+      CellCosts cell{0.0, 0.0, path, goal, static_cast<double>(occupancy), 0.0};
+      costmap_->mapToWorld(mx, my, cell.x, cell.y);
+      cell.total = res * config_.path_distance_bias * path + res * config_.goal_distance_bias * goal +
+                   config_.occdist_scale * cell.occupancy;
+      cells.push_back(cell);
+    }
+  }
+  return cells;
+}
+
 Trajectory DwaPlanner::findBestPath(const Pose2D& pose, const Velocity2D& velocity) {
   // The winner is the valid sample of lowest total cost, the first in sample order on a tie.
   // The footprint check (obstacle critic) is the costly one, so it runs last and only as far

@@ -174,6 +174,8 @@ ControlResult LocalController::computeVelocityCommands(const CostGrid& costmap, 
     turn.transformed_plan = std::move(result.transformed_plan);
     return turn;
   }
+  if (record_trajectories_) result.explored = planner_.exploreSamples(pose, velocity);
+  if (record_cell_costs_) result.cell_costs = planner_.cellCosts();
   const Trajectory best = planner_.findBestPath(pose, velocity);
   if (best.cost < 0.0) {
     result.message = "every velocity sample was discarded" + discardReasons(planner_.lastSampleCount(), planner_.lastDiscards());

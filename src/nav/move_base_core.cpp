@@ -262,10 +262,12 @@ CycleOutput MoveBaseCore::runCycle(const CycleInput& in) {
         state_ = MoveBaseState::kClearing;
         trigger_ = Trigger::kOscillation;
       }
-      const ControlResult control = controller_.computeVelocityCommands(
+      ControlResult control = controller_.computeVelocityCommands(
           local_costmap_->costmap(), local_costmap_->footprint(), in.pose_local, in.velocity, global_to_local);
       timings_.control += elapsedSince(t0);
       ++timings_.control_cycles;
+      out.explored = std::move(control.explored);
+      out.cell_costs = std::move(control.cell_costs);
       if (control.ok) {
         last_valid_control_ = in.now;
         out.publish_command = true;

@@ -3,7 +3,8 @@
 
 One script, several cases chosen by ``~case``:
   tour       one robot visits the eight task goals of scenarios/lab_2r.xml in order; each
-             succeeds within 0.05 m / 0.17 rad of the goal, no collision event
+             succeeds within 0.05 m / 0.17 rad of the goal, no collision event; on the way to
+             the first, DWA's trajectory_cloud and cost_cloud carry dwa_local_planner's fields
   swap       two robots swap sides of the partition wall through its door at the same time;
              both succeed, no robot-robot collision
   goal_errors  a goal inside a column aborts with a clear message within the planner patience;
@@ -43,6 +44,8 @@ from geometry_msgs.msg import Pose2D
 from move_base_msgs.msg import MoveBaseAction, MoveBaseActionResult, MoveBaseGoal
 from nav_msgs.msg import Odometry
 from rosgraph_msgs.msg import Log
+from sensor_msgs import point_cloud2
+from sensor_msgs.msg import PointCloud2
 from std_srvs.srv import SetBool
 
 from marl_mrta.msg import CollisionEvent, LockstepAck
@@ -248,13 +251,56 @@ class NavTest(unittest.TestCase):
         self.assertEqual([], events, "collision events (sim time, robot, other): %s" % events)
 
 
+class DwaClouds:
+    """The first clouds of move_base's DWAPlannerROS/trajectory_cloud and cost_cloud (TurtleBot3's
+    publish_traj_pc and publish_cost_grid_pc are on); subscribed only until stop()."""
+
+    def __init__(self, ns, keep=5):
+        self.ns, self.keep = ns, keep
+        self.clouds = {"trajectory_cloud": [], "cost_cloud": []}
+        self.subscribers = [rospy.Subscriber("%s/move_base/DWAPlannerROS/%s" % (ns, topic), PointCloud2,
+                                             lambda msg, kept=kept: len(kept) < keep and kept.append(msg), queue_size=5)
+                            for topic, kept in self.clouds.items()]
+
+    def stop(self):
+        for subscriber in self.subscribers:
+            subscriber.unregister()
+
+    def check(self, test):
+        dwa = rospy.get_param(self.ns + "/move_base/DWAPlannerROS")
+        resolution = rospy.get_param(self.ns + "/move_base/local_costmap/resolution")
+        for topic, fields in (("trajectory_cloud", ["x", "y", "z", "theta", "cost"]),
+                              ("cost_cloud", ["x", "y", "z", "path_cost", "goal_cost", "occ_cost", "total_cost"])):
+            test.assertTrue(self.clouds[topic], topic + ": nothing published while driving")
+            cloud = self.clouds[topic][-1]
+            test.assertEqual(fields, [f.name for f in cloud.fields], topic)
+            test.assertEqual(self.ns + "/odom", cloud.header.frame_id, topic + ": the local costmap's frame")
+            points = list(point_cloud2.read_points(cloud, field_names=fields))
+            test.assertGreater(len(points), 100, topic)
+            if topic == "trajectory_cloud":
+                costs = {p[4] for p in points}
+                test.assertGreaterEqual(min(costs), 0.0, "discarded rollouts are left out")
+                test.assertGreater(len(costs), 10, "a cost per scored rollout")
+            else:
+                test.assertEqual(0.0, min(p[4] for p in points), "the local goal's cell")
+                test.assertLess(max(p[5] for p in points), 253.0, "cells in or next to obstacles are left out")
+                for p in points[::97]:
+                    total = resolution * (dwa["path_distance_bias"] * p[3] + dwa["goal_distance_bias"] * p[4]) \
+                        + dwa["occdist_scale"] * p[5]
+                    test.assertAlmostEqual(total, p[6], delta=1e-4 * max(1.0, total))
+
+
 class TourTest(NavTest):
     def test_eight_task_goals_in_order(self):
         goals = tour_goals()
         self.assertEqual(8, len(goals))
         robot = self.fleet["tb3_0"]
-        for label, goal in goals:
+        clouds = DwaClouds(robot.ns)
+        for index, (label, goal) in enumerate(goals):
             self.visit(robot, goal, label)
+            if index == 0:
+                clouds.stop()  # the clouds cost a scoring of every sample per cycle
+                clouds.check(self)
         self.assert_no_collisions()
 
 

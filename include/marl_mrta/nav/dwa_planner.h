@@ -115,6 +115,20 @@ class DwaPlanner {
   // Scores one command (used to check stopping and in-place rotation commands).
   bool checkTrajectory(const Pose2D& pose, const Velocity2D& velocity, const Velocity2D& sample);
 
+  // Every sample of the dynamic window rolled out and scored whole (cost < 0: discarded), as
+  // dwa_local_planner publishes them on trajectory_cloud (publish_traj_pc). Call it before
+  // findBestPath(), which moves the oscillation flags the scores read; it changes nothing.
+  std::vector<Trajectory> exploreSamples(const Pose2D& pose, const Velocity2D& velocity) const;
+  // A local-costmap cell as dwa_local_planner's cost_cloud (publish_cost_grid_pc) shows it:
+  // cell centre [m, costmap frame], path and goal distance [cells], cell cost, and
+  // path_distance_bias·res·path + goal_distance_bias·res·goal + occdist_scale·occ.
+  struct CellCosts {
+    double x, y, path, goal, occupancy, total;
+  };
+  // Every cell of the last updatePlanAndLocalCosts() but those in or next to an obstacle
+  // (cost >= 253) and those the path distance cannot reach, as dwa_local_planner leaves them out.
+  std::vector<CellCosts> cellCosts() const;
+
   // The velocity samples for a current velocity (dynamic window).
   std::vector<Velocity2D> velocitySamples(const Velocity2D& velocity) const;
   // Rolls a sample out; false (no points) when it is below the minimum or above the maximum speed.

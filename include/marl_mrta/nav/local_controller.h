@@ -30,6 +30,10 @@ struct ControlResult {
   std::vector<Pose2D> local_plan;        // the chosen rollout (controller frame)
   std::vector<Pose2D> transformed_plan;  // the global plan near the robot (controller frame)
   std::string message;                   // why no command could be found
+  // When recorded (recordDwaClouds), while DWA runs: every scored sample and the cells'
+  // critic costs, dwa_local_planner's trajectory_cloud and cost_cloud.
+  std::vector<Trajectory> explored;
+  std::vector<DwaPlanner::CellCosts> cell_costs;
 };
 
 class LocalController {
@@ -50,6 +54,11 @@ class LocalController {
   // A new goal: forget the stop-and-rotate phase of the previous one.
   void startGoal();
   bool hasPlan() const { return !global_plan_.empty(); }
+  // Whether computeVelocityCommands() fills ControlResult::explored and ::cell_costs.
+  void recordDwaClouds(bool trajectories, bool cell_costs) {
+    record_trajectories_ = trajectories;
+    record_cell_costs_ = cell_costs;
+  }
 
   // pose: robot in the controller (costmap) frame; velocity: robot frame (odometry twist);
   // global_to_local: global (plan) frame -> controller frame.
@@ -68,6 +77,7 @@ class LocalController {
   std::vector<Pose2D> global_plan_;
   bool xy_tolerance_latch_ = false;
   bool rotating_to_goal_ = false;
+  bool record_trajectories_ = false, record_cell_costs_ = false;
 };
 
 }  // namespace nav

@@ -39,6 +39,8 @@ struct CycleOutput {
   bool new_plan = false;           // `plan` holds a new global plan
   std::vector<Pose2D> plan;
   std::vector<Pose2D> local_plan;  // chosen DWA rollout (local frame)
+  std::vector<Trajectory> explored;                // when recorded: LocalController::recordDwaClouds
+  std::vector<DwaPlanner::CellCosts> cell_costs;   // (local frame)
   std::string recovery_started;    // name of a recovery behaviour started this cycle
 };
 
@@ -58,6 +60,7 @@ class MoveBaseCore {
   LayeredCostmap& globalCostmap() { return *global_costmap_; }
   LayeredCostmap& localCostmap() { return *local_costmap_; }
   NavfnPlanner& planner() { return planner_; }
+  LocalController& controller() { return controller_; }
 
   // A new goal (global frame); replaces any active goal.
   void setGoal(const Pose2D& goal, double now);

@@ -10,6 +10,7 @@
 #include <geometry_msgs/TransformStamped.h>
 #include <nav_msgs/OccupancyGrid.h>
 #include <nav_msgs/Path.h>
+#include <sensor_msgs/PointCloud2.h>
 #include <ros/node_handle.h>
 #include <ros/time.h>
 
@@ -44,6 +45,9 @@ nav_msgs::OccupancyGrid toOccupancyGrid(const map::OccupancyMap& occupancy, cons
 nav_msgs::OccupancyGrid costmapToOccupancyGrid(const CostGrid& grid, const std::string& frame_id,
                                                const ros::Time& stamp);
 nav_msgs::Path toPath(const std::vector<Pose2D>& poses, const std::string& frame_id, const ros::Time& stamp);
+// An unorganised cloud of float32 fields, `values` row by row (fields.size() values a point).
+sensor_msgs::PointCloud2 toPointCloud2(const std::vector<std::string>& fields, const std::vector<float>& values,
+                                       const std::string& frame_id, const ros::Time& stamp);
 
 }  // namespace ros_conversions
 }  // namespace nav

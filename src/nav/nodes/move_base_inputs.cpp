@@ -156,6 +156,9 @@ void MoveBaseRos::controlStep(const ros::Time& stamp, const ros::Time& lookup_ti
   Velocity2D velocity;
   if (last_odom_) velocity = {last_odom_->twist.twist.linear.x, last_odom_->twist.twist.linear.y,
                               last_odom_->twist.twist.angular.z};
+  const MoveBaseConfig& config = core_->config();
+  core_->controller().recordDwaClouds(config.dwa_publish_traj_pc && trajectory_cloud_pub_.getNumSubscribers() > 0,
+                                      config.dwa_publish_cost_grid_pc && cost_cloud_pub_.getNumSubscribers() > 0);
   const CycleOutput out = core_->runCycle({now, pose_global, pose_local, velocity});
   publishOutputs(out, pose_global, stamp);
 }

@@ -35,6 +35,7 @@ void MoveBaseRos::publishOutputs(const CycleOutput& out, const Pose2D& pose, con
   if (!out.local_plan.empty() && local_plan_pub_.getNumSubscribers() > 0) {
     local_plan_pub_.publish(conv::toPath(out.local_plan, local_frame_, stamp));
   }
+  publishDwaClouds(out, stamp);
   if (!action_server_.isActive()) return;
   waitForClock(stamp);  // actionlib stamps what follows with ros::Time::now()
   switch (out.outcome) {
@@ -59,6 +60,32 @@ void MoveBaseRos::publishOutputs(const CycleOutput& out, const Pose2D& pose, con
       action_server_.publishFeedback(feedback);
       break;
     }
+  }
+}
+
+void MoveBaseRos::publishDwaClouds(const CycleOutput& out, const ros::Time& stamp) {
+  // Fields and rows as dwa_local_planner's: scored rollouts (discarded ones left out), and the
+  // cells its distance critics score.
+  if (!out.explored.empty()) {
+    std::vector<float> values;
+    for (const Trajectory& rollout : out.explored) {
+      if (rollout.cost < 0.0) continue;
+      for (const Pose2D& p : rollout.points) {
+        values.insert(values.end(), {static_cast<float>(p.x), static_cast<float>(p.y), 0.0f,
+                                     static_cast<float>(p.yaw), static_cast<float>(rollout.cost)});
+      }
+    }
+    trajectory_cloud_pub_.publish(conv::toPointCloud2({"x", "y", "z", "theta", "cost"}, values, local_frame_, stamp));
+  }
+  if (!out.cell_costs.empty()) {
+    std::vector<float> values;
+    for (const DwaPlanner::CellCosts& c : out.cell_costs) {
+      values.insert(values.end(), {static_cast<float>(c.x), static_cast<float>(c.y), 0.0f, static_cast<float>(c.path),
+                                   static_cast<float>(c.goal), static_cast<float>(c.occupancy),
+                                   static_cast<float>(c.total)});
+    }
+    cost_cloud_pub_.publish(conv::toPointCloud2({"x", "y", "z", "path_cost", "goal_cost", "occ_cost", "total_cost"},
+                                                values, local_frame_, stamp));
   }
 }
 

@@ -70,6 +70,8 @@ MoveBaseRos::MoveBaseRos(ros::NodeHandle& nh, ros::NodeHandle& private_nh)
   plan_pub_ = private_nh_.advertise<nav_msgs::Path>("NavfnROS/plan", 1);
   local_plan_pub_ = private_nh_.advertise<nav_msgs::Path>("DWAPlannerROS/local_plan", 1);
   global_plan_pub_ = private_nh_.advertise<nav_msgs::Path>("DWAPlannerROS/global_plan", 1);
+  trajectory_cloud_pub_ = private_nh_.advertise<sensor_msgs::PointCloud2>("DWAPlannerROS/trajectory_cloud", 1);
+  cost_cloud_pub_ = private_nh_.advertise<sensor_msgs::PointCloud2>("DWAPlannerROS/cost_cloud", 1);
   global_costmap_pub_ = private_nh_.advertise<nav_msgs::OccupancyGrid>("global_costmap/costmap", 1);
   local_costmap_pub_ = private_nh_.advertise<nav_msgs::OccupancyGrid>("local_costmap/costmap", 1);
   action_goal_pub_ = nh_.advertise<move_base_msgs::MoveBaseActionGoal>("move_base/goal", 1);

@@ -77,6 +77,7 @@ class MoveBaseRos {
   void publishCommand(const Velocity2D& command);
   void publishOutputs(const CycleOutput& out, const Pose2D& pose, const ros::Time& stamp);
   void publishCostmaps(double now, const ros::Time& stamp);
+  void publishDwaClouds(const CycleOutput& out, const ros::Time& stamp);
   double nowSeconds() const;
   void writeStats() const;
 
@@ -87,6 +88,7 @@ class MoveBaseRos {
   actionlib::SimpleActionServer<move_base_msgs::MoveBaseAction> action_server_;
   ros::Publisher cmd_vel_pub_, current_goal_pub_, plan_pub_, local_plan_pub_, global_plan_pub_;
   ros::Publisher global_costmap_pub_, local_costmap_pub_, action_goal_pub_, ack_pub_;
+  ros::Publisher trajectory_cloud_pub_, cost_cloud_pub_;  // DWA's publish_traj_pc, publish_cost_grid_pc
   ros::Subscriber simple_goal_sub_, odom_sub_, map_sub_, tick_sub_;
   ros::ServiceServer make_plan_srv_, clear_costmaps_srv_;
   ros::Timer control_timer_;

@@ -3,6 +3,7 @@
 #include <ros/param.h>
 
 #include <cmath>
+#include <cstring>
 #include <sstream>
 
 namespace marl_mrta {
@@ -131,6 +132,29 @@ nav_msgs::OccupancyGrid costmapToOccupancyGrid(const CostGrid& costs, const std:
   grid.data.resize(costs.cells().size());
   for (size_t i = 0; i < costs.cells().size(); ++i) grid.data[i] = translation[costs.cells()[i]];
   return grid;
+}
+
+sensor_msgs::PointCloud2 toPointCloud2(const std::vector<std::string>& fields, const std::vector<float>& values,
+                                       const std::string& frame_id, const ros::Time& stamp) {
+  sensor_msgs::PointCloud2 cloud;
+  cloud.header.frame_id = frame_id;
+  cloud.header.stamp = stamp;
+  for (size_t i = 0; i < fields.size(); ++i) {
+    sensor_msgs::PointField field;
+    field.name = fields[i];
+    field.offset = static_cast<uint32_t>(i * sizeof(float));
+    field.datatype = sensor_msgs::PointField::FLOAT32;
+    field.count = 1;
+    cloud.fields.push_back(field);
+  }
+  cloud.point_step = static_cast<uint32_t>(fields.size() * sizeof(float));
+  cloud.height = 1;
+  cloud.width = fields.empty() ? 0 : static_cast<uint32_t>(values.size() / fields.size());
+  cloud.row_step = cloud.point_step * cloud.width;
+  cloud.is_dense = true;
+  cloud.data.resize(values.size() * sizeof(float));
+  if (!values.empty()) std::memcpy(cloud.data.data(), values.data(), cloud.data.size());
+  return cloud;
 }
 
 nav_msgs::Path toPath(const std::vector<Pose2D>& poses, const std::string& frame_id, const ros::Time& stamp) {

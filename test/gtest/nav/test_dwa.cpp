@@ -196,15 +196,13 @@ TEST(Dwa, FindBestPathPicksWhatScoringEverySampleWouldPick) {
         for (const Velocity2D velocity : {Velocity2D{0.0, 0.0, 0.0}, Velocity2D{0.2, 0.0, 0.5}, Velocity2D{0.1, 0.0, -1.2}}) {
           const Pose2D pose{x, 1.5 + 0.3 * std::sin(3.0 * x), yaw};
           planner.updatePlanAndLocalCosts(costmap->costmap(), pose, plan, costmap->footprint());
+          // Every sample scored whole: what trajectory_cloud shows (exploreSamples).
           double best_cost = -1.0;
           Velocity2D best;
-          for (const Velocity2D& sample : planner.velocitySamples(velocity)) {
-            Trajectory t;
-            if (!planner.generateTrajectory(pose, sample, t)) continue;
-            const double cost = planner.scoreTrajectory(t, -1.0);
-            if (cost >= 0.0 && (best_cost < 0.0 || cost < best_cost)) {
-              best_cost = cost;
-              best = sample;
+          for (const Trajectory& t : planner.exploreSamples(pose, velocity)) {
+            if (t.cost >= 0.0 && (best_cost < 0.0 || t.cost < best_cost)) {
+              best_cost = t.cost;
+              best = {t.xv, t.yv, t.thetav};
             }
           }
           const Trajectory chosen = planner.findBestPath(pose, velocity);
@@ -233,6 +231,60 @@ TEST(Dwa, FindBestPathPicksWhatScoringEverySampleWouldPick) {
   EXPECT_GT(compared, 150);
   // The strong obstacle critic must change some choices, or the check above proves little.
   EXPECT_GT(differs_from_weak, 5);
+}
+
+TEST(Dwa, ExploredSamplesAreTheDynamicWindowsRollouts) {
+  const auto m = roomMap(100, 60, {{60, 0, 62, 26}});
+  auto costmap = costmapOf(m);
+  DwaPlanner planner(burgerDwa());
+  const Pose2D pose{2.75, 0.8, 0.0};
+  const Velocity2D velocity{0.2, 0.0, 0.0};
+  planner.updatePlanAndLocalCosts(costmap->costmap(), pose, straightPlan({2.0, 1.0, 0}, {4.5, 1.0, 0}),
+                                  costmap->footprint());
+  const std::vector<Trajectory> explored = planner.exploreSamples(pose, velocity);
+  size_t rolled_out = 0, valid = 0, discarded = 0;
+  for (const Velocity2D& sample : planner.velocitySamples(velocity)) {
+    Trajectory t;
+    rolled_out += planner.generateTrajectory(pose, sample, t);
+  }
+  ASSERT_EQ(rolled_out, explored.size());
+  for (const Trajectory& t : explored) {
+    ASSERT_FALSE(t.points.empty());
+    EXPECT_EQ(pose.x, t.points.front().x);
+    (t.cost >= 0.0 ? valid : discarded) += 1;
+  }
+  EXPECT_GT(valid, 0u);
+  EXPECT_GT(discarded, 0u) << "the wall 0.25 m ahead must discard the fast straight rollouts";
+}
+
+TEST(Dwa, CellCostsAreTheDistanceCriticsGrids) {
+  // dwa_local_planner's cost_cloud: path and goal distance in cells, the cell cost, and the
+  // critics' weighted sum; no cell on or next to an obstacle.
+  const auto m = roomMap(100, 60, {{60, 0, 62, 26}});
+  auto costmap = costmapOf(m);
+  const DwaConfig config = burgerDwa();
+  DwaPlanner planner(config);
+  const Pose2D pose{1.5, 1.5, 0.0};
+  planner.updatePlanAndLocalCosts(costmap->costmap(), pose, straightPlan({1.0, 1.5, 0}, {4.0, 1.5, 0}),
+                                  costmap->footprint());
+  const std::vector<DwaPlanner::CellCosts> cells = planner.cellCosts();
+  const CostGrid& grid = costmap->costmap();
+  ASSERT_GT(cells.size(), grid.sizeX() * grid.sizeY() / 2);
+  EXPECT_LT(cells.size(), grid.sizeX() * grid.sizeY()) << "the wall's cells must be left out";
+  size_t on_path = 0, at_goal = 0;
+  for (const DwaPlanner::CellCosts& c : cells) {
+    unsigned mx = 0, my = 0;
+    ASSERT_TRUE(grid.worldToMap(c.x, c.y, mx, my));
+    EXPECT_EQ(static_cast<double>(grid.cost(mx, my)), c.occupancy);
+    EXPECT_LT(c.occupancy, 253.0);
+    const double res = grid.resolution();
+    EXPECT_NEAR(res * config.path_distance_bias * c.path + res * config.goal_distance_bias * c.goal +
+                    config.occdist_scale * c.occupancy, c.total, 1e-9);
+    on_path += c.path == 0.0 && std::fabs(c.y - 1.5) < res;
+    at_goal += c.goal == 0.0;
+  }
+  EXPECT_GT(on_path, 20u) << "the plan's cells are at path distance 0";
+  EXPECT_EQ(1u, at_goal) << "one local goal cell";
 }
 
 TEST(Dwa, ReachesGoalPositionAndYawWithinTolerance) {
