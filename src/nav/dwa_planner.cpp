@@ -244,9 +244,7 @@ void DwaPlanner::updatePlanAndLocalCosts(const CostGrid& costmap, const Pose2D& 
   // Keeping the nose on the path destabilises the last forward_point_distance: switch it off there.
   const double sq_dist = (pose.x - goal.x) * (pose.x - goal.x) + (pose.y - goal.y) * (pose.y - goal.y);
   // (The alignment critic reads path_grid_: the same target cells.)
-  alignment_scale_ = sq_dist > config_.forward_point_distance * config_.forward_point_distance
-                         ? costmap.resolution() * config_.path_distance_bias
-                         : 0.0;
+  alignment_scale_ = sq_dist > config_.forward_point_distance * config_.forward_point_distance ? pathScale() : 0.0;
 }
 
 std::vector<Velocity2D> DwaPlanner::velocitySamples(const Velocity2D& velocity) const {
@@ -370,9 +368,8 @@ double DwaPlanner::mapGridCost(const MapGrid& grid, const Trajectory& trajectory
 }
 
 double DwaPlanner::scoreWithoutObstacles(const Trajectory& trajectory, double bound) const {
-  const double res = costmap_ ? costmap_->resolution() : 0.05;
-  const double path_scale = res * config_.path_distance_bias;
-  const double goal_scale = res * config_.goal_distance_bias;
+  const double path_scale = pathScale();
+  const double goal_scale = goalScale();
   const double fpd = config_.forward_point_distance;
   // The critics of dwa_local_planner but the obstacle one, which scoreTrajectory() adds last
   // (dwa_local_planner runs it second): scale, cost (negative = discard), what it prefers.
@@ -455,7 +452,6 @@ std::vector<Trajectory> DwaPlanner::exploreSamples(const Pose2D& pose, const Vel
 std::vector<DwaPlanner::CellCosts> DwaPlanner::cellCosts() const {
   std::vector<CellCosts> cells;
   if (costmap_ == nullptr) return cells;
-  const double res = costmap_->resolution();
   for (unsigned mx = 0; mx < costmap_->sizeX(); ++mx) {  // dwa_local_planner's order
     for (unsigned my = 0; my < costmap_->sizeY(); ++my) {
       const double path = path_grid_.distance(mx, my);
@@ -467,8 +463,7 @@ std::vector<DwaPlanner::CellCosts> DwaPlanner::cellCosts() const {
       }
       CellCosts cell{0.0, 0.0, path, goal, static_cast<double>(occupancy), 0.0};
       costmap_->mapToWorld(mx, my, cell.x, cell.y);
-      cell.total = res * config_.path_distance_bias * path + res * config_.goal_distance_bias * goal +
-                   config_.occdist_scale * cell.occupancy;
+      cell.total = pathScale() * path + goalScale() * goal + config_.occdist_scale * cell.occupancy;
       cells.push_back(cell);
     }
   }

@@ -170,6 +170,10 @@ class DwaPlanner {
   double mapGridCost(const MapGrid& grid, const Trajectory& trajectory, double x_shift, bool stop_on_failure) const;
   // scoreTrajectory() without the obstacle critic; stops summing once above bound (>= 0).
   double scoreWithoutObstacles(const Trajectory& trajectory, double bound) const;
+  // The distance critics' weights: dwa_local_planner scales path_distance_bias and
+  // goal_distance_bias by the costmap's resolution (their distances are in cells).
+  double pathScale() const { return (costmap_ ? costmap_->resolution() : 0.05) * config_.path_distance_bias; }
+  double goalScale() const { return (costmap_ ? costmap_->resolution() : 0.05) * config_.goal_distance_bias; }
   void updateOscillationFlags(const Pose2D& pose, const Trajectory& chosen);
 
   DwaConfig config_;
