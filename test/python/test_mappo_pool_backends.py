@@ -184,7 +184,8 @@ def test_ros_backend_without_a_graph_is_one_line(tmp_path):
 
 class _WaitsForOther:
     """Environment 0 of a pair: its second step returns only once environment 1 (`other`) has taken
-    `steps` more steps, which can happen only if the two are not stepped in lock-step."""
+    `steps` more steps, which can happen only if the two are not stepped in lock-step. It tells
+    `other` when it has begun to wait."""
 
     def __init__(self, env, other, steps):
         self.env, self.other, self.steps, self.calls = env, other, steps, 0
@@ -197,6 +198,7 @@ class _WaitsForOther:
     def step(self, actions):
         self.calls += 1
         if self.calls == 2:
+            self.other.waited_for.set()
             with self.other.advanced:
                 target = self.other.calls + self.steps
                 assert self.other.advanced.wait_for(lambda: self.other.calls >= target, timeout=60.0), \
@@ -205,11 +207,16 @@ class _WaitsForOther:
 
 
 class _Counted:
-    """Environment 1 of the pair: counts its steps and tells whoever waits on them."""
+    """Environment 1 of the pair: counts its steps and tells whoever waits on them. Its fifth step
+    waits until environment 0 waits for it, so that it cannot use up its rollout before (a thread
+    scheduled late on a busy machine would otherwise find too few steps left to wait for)."""
+
+    HEAD_START = 4
 
     def __init__(self, env):
         import threading
         self.env, self.calls, self.advanced = env, 0, threading.Condition()
+        self.waited_for = threading.Event()
         self.n_agents, self.n_actions, self.obs_dim, self.state_dim = env.n_agents, env.n_actions, env.obs_dim, env.state_dim
         self.scenario = env.scenario
 
@@ -217,6 +224,8 @@ class _Counted:
         return self.env.reset(seed=seed)
 
     def step(self, actions):
+        if self.calls == self.HEAD_START:
+            assert self.waited_for.wait(timeout=60.0), "environment 0 never took its second step"
         out = self.env.step(actions)
         with self.advanced:
             self.calls += 1
