@@ -15,11 +15,17 @@ ROUND_THE_WALL_END = Leg((1.575, 0.525, 2.5385), (0.325, 1.675, -1.1669), 600763
 STOCK_LOCKSTEP_TIME = 54.8
 
 
-def test_builtin_turns_round_the_wall_end_as_stock_does(tmp_path):
-    records, error = bench.run_stack("builtin", bench.map_files()["corridors"], [ROUND_THE_WALL_END], 1, "simulator", "ideal",
-                                     rtf=0.0, goal_timeout=120.0, workdir=str(tmp_path), tag="corridors",
-                                     lockstep=True)
+def drive_builtin_in_lockstep(map_path, legs, tmp_path, tag):
+    """The built-in stack drives each leg once on the map, in lock-step (the simulator's ideal
+    profile, localisation from the simulator); the legs' records, in order."""
+    records, error = bench.run_stack("builtin", map_path, legs, 1, "simulator", "ideal", rtf=0.0, goal_timeout=120.0,
+                                     workdir=str(tmp_path), tag=tag, lockstep=True)
     assert error == ""
-    assert len(records) == 1
+    assert [r.index for r in records] == list(range(len(legs)))
+    return records
+
+
+def test_builtin_turns_round_the_wall_end_as_stock_does(tmp_path):
+    records = drive_builtin_in_lockstep(bench.map_files()["corridors"], [ROUND_THE_WALL_END], tmp_path, "corridors")
     assert records[0].succeeded, records[0].outcome
     assert records[0].time <= MAX_RATIO_GOAL * STOCK_LOCKSTEP_TIME, f"round the wall end in {records[0].time:.1f} s"

@@ -9,18 +9,14 @@ import pytest
 pytest.importorskip("rospkg", reason="ROS not available")
 bench = pytest.importorskip("marl_mrta.apps.bench_nav_vs_stock")
 from marl_mrta.evaluation.nav_comparison import MAX_RATIO_GOAL  # noqa: E402
+from test_nav_corridors_turn import drive_builtin_in_lockstep  # noqa: E402
 
 #: s of sim time stock move_base takes out of the pocket at rtf 1 (the slowest of three drives).
 STOCK_POCKET_EXIT = 31.4
 
 
 def test_builtin_leaves_the_dead_end_pocket_without_dithering(tmp_path):
-    legs = list(bench.FIXED_LEGS["doors"])
-    records, error = bench.run_stack("builtin", bench.map_files()["doors"], legs, 1, "simulator", "ideal",
-                                     rtf=0.0, goal_timeout=120.0, workdir=str(tmp_path), tag="doors", lockstep=True)
-    assert error == ""
-    assert [r.index for r in records] == [0, 1]
-    into, out_of = records
+    into, out_of = drive_builtin_in_lockstep(bench.map_files()["doors"], list(bench.FIXED_LEGS["doors"]), tmp_path, "doors")
     assert into.succeeded, into.outcome
     assert out_of.succeeded, out_of.outcome
     assert out_of.time <= MAX_RATIO_GOAL * STOCK_POCKET_EXIT, f"out of the pocket in {out_of.time:.1f} s"

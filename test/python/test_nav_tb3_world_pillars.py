@@ -9,6 +9,7 @@ import pytest
 pytest.importorskip("rospkg", reason="ROS not available")
 bench = pytest.importorskip("marl_mrta.apps.bench_nav_vs_stock")
 from marl_mrta.evaluation.nav_comparison import MAX_RATIO_GOAL, Leg  # noqa: E402
+from test_nav_corridors_turn import drive_builtin_in_lockstep  # noqa: E402
 
 BETWEEN_THE_PILLARS = Leg((-0.725, 0.475, -0.9893), (0.775, 2.175, -0.1717), 1015591691)
 #: s of sim time stock move_base takes in lock-step (the slower of two runs).
@@ -19,10 +20,6 @@ def test_builtin_backs_out_from_between_the_pillars_as_stock_does(tmp_path):
     tb3_map = bench.map_files().get("tb3_world")
     if tb3_map is None:
         pytest.skip("TurtleBot3's turtlebot3_world map not found beside the checkout (../shared/external/...)")
-    records, error = bench.run_stack("builtin", tb3_map, [BETWEEN_THE_PILLARS], 1, "simulator", "ideal",
-                                     rtf=0.0, goal_timeout=120.0, workdir=str(tmp_path), tag="tb3_world",
-                                     lockstep=True)
-    assert error == ""
-    assert len(records) == 1
+    records = drive_builtin_in_lockstep(tb3_map, [BETWEEN_THE_PILLARS], tmp_path, "tb3_world")
     assert records[0].succeeded, records[0].outcome
     assert records[0].time <= MAX_RATIO_GOAL * STOCK_LOCKSTEP_TIME, f"between the pillars in {records[0].time:.1f} s"
