@@ -7,7 +7,8 @@
 - random: the random baseline runs an episode to its end (all tasks or the timeout) through
   RosTaskEnvClient, never aborted, every finished task reported once;
 - repeat: the graph's first exact episode and the next one end on the same tick;
-- reset: after robots have driven, ~reset puts them back on the scenario's start poses.
+- reset: after robots have driven, ~reset puts them back on the scenario's start poses;
+- idle steps: a step in which every robot chose None runs exactly min_step of sim time.
 Waiting is bounded in wall time; nothing here asserts speed.
 """
 import json
@@ -29,6 +30,7 @@ from marl_mrta.baselines.random_policy import RandomPolicy
 from marl_mrta.apps.evaluate import main as evaluate_main
 from marl_mrta.evaluation.loop import run_episodes
 from marl_mrta.msg import IdleTime, TaskAssignment, TaskReached
+from marl_mrta.srv import StepSim
 from marl_mrta.ros import markers
 from marl_mrta.ros.env_client import RosTaskEnvClient
 from marl_mrta.ros.sim_link import quaternion_to_yaw
@@ -207,6 +209,23 @@ class TaskEpisodesTest(unittest.TestCase):
             self.assertAlmostEqual(pose.position.y, robot.start.y, delta=1e-3, msg=ns)
             self.assertAlmostEqual(quaternion_to_yaw(pose.orientation), robot.start.yaw, delta=1e-3, msg=ns)
             self.assertAlmostEqual(self.truth[ns].twist.twist.linear.x, 0.0, delta=1e-6)
+
+    def test_steps_without_goals_run_exactly_min_step(self):
+        # Time must not run while no goal is under way: a pause requested then lands a number of
+        # ticks later that depends on the load, and the next step starts late (same seed,
+        # different episode).
+        env = self.env
+        current_tick = lambda: rospy.ServiceProxy("/simulator/step", StepSim)(0).tick
+        rate = float(rospy.get_param("/simulator/physics_rate"))
+        none = [env.n_tasks] * env.n_agents
+        env.reset(seed=3)
+        env.step(none)
+        ticks = [current_tick()]
+        for _ in range(5):
+            out = env.step(none)
+            self.assertAlmostEqual(out.info.step_duration, env.settings.min_step)
+            ticks.append(current_tick())
+        self.assertEqual([b - a for a, b in zip(ticks, ticks[1:])], [round(env.settings.min_step * rate)] * 5)
 
 
 if __name__ == "__main__":

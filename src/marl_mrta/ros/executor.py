@@ -225,25 +225,12 @@ class RosExecutor:
         deadline = t0 + limit
         try:
             await_accepted(self.bases, pending, self.lost_after)
-            watched = [i for i in pending if self.bases[i].result is None and self._reports_goal_ends(i)]
-            self._run_until(deadline, watched)
             stale = StaleSuccessGuard(t0)
-            watching = bool(watched)
-
-            def ended() -> bool:
-                nonlocal watching
-                done = stale.all_ended(self, goals, pending)
-                if watching and stale.resent:
-                    # A goal sent once more ends after the goal ends the simulator watches for (or
-                    # it counted the stale one): it would pause before that goal's end.
-                    self._run_until(deadline)
-                    watching = False
-                return done
-
-            if self.clock.wait_until(ended, deadline) and watching:
-                self._await_early_pause(watched, deadline)
-            self._pause(True)
-            self.sim.wait_caught_up(*self.sim.step(0))   # every controller has seen the last tick
+            # Time runs only while a goal is under way. With none (every robot chose None, or every
+            # goal ended on acceptance) nothing would pause the simulator but a request, which lands
+            # a number of ticks later that depends on the load; finish_step runs the step's time.
+            if not stale.all_ended(self, goals, pending):
+                self._drive_until_ended(goals, pending, deadline, stale)
             # A goal that ended on the last tick may have its result still in flight (it travels
             # on another connection than the answer to that tick): it is cancelled too, and
             # waiting for every cancelled goal to end waits for that result, which a cancel of
@@ -267,6 +254,28 @@ class RosExecutor:
             else:
                 robots.append(RobotOutcome(True, False, limit, collisions[i], "goal timeout"))
         return StepOutcome(robots=robots)
+
+    def _drive_until_ended(self, goals: Sequence[Optional[int]], pending: Sequence[int], deadline: float,
+                           stale: StaleSuccessGuard) -> None:
+        """Lets sim time run until every pending goal has ended or the deadline; then paused."""
+        watched = [i for i in pending if self.bases[i].result is None and self._reports_goal_ends(i)]
+        self._run_until(deadline, watched)
+        watching = bool(watched)
+
+        def ended() -> bool:
+            nonlocal watching
+            done = stale.all_ended(self, goals, pending)
+            if watching and stale.resent:
+                # A goal sent once more ends after the goal ends the simulator watches for (or
+                # it counted the stale one): it would pause before that goal's end.
+                self._run_until(deadline)
+                watching = False
+            return done
+
+        if self.clock.wait_until(ended, deadline) and watching:
+            self._await_early_pause(watched, deadline)
+        self._pause(True)
+        self.sim.wait_caught_up(*self.sim.step(0))   # every controller has seen the last tick
 
     def finish_step(self, duration: float) -> None:
         """Lets sim time run to the step's end (service and idle time: the robots stand still)."""
@@ -341,12 +350,13 @@ class RosExecutor:
 
     def _settle(self, align: bool) -> float:
         """With the simulator paused: optionally step to the next aligned tick, then wait until
-        every controller and the ground truth have caught up. Returns the sim time."""
+        every controller and the ground truth have caught up. Returns the sim time. The current
+        tick's state is always waited for, never stepped past: it may still be in flight, and a
+        tick stepped for it would land on some runs and not on others (wait_for_graph has made
+        sure that this node hears every tick's state)."""
         tick, stamp = self.sim.step(0)
         period = self._align_ticks() if align else 1
         ticks = (period - tick % period) % period
-        if ticks == 0 and not self.sim.has_state(tick, stamp):
-            ticks = period   # this tick's state went out before this node listened (start-up)
         if ticks:
             tick, stamp = self._advance(ticks)
         self.sim.wait_caught_up(tick, stamp)
