@@ -44,7 +44,7 @@ void MoveBaseRos::processTicks() {
       const bool odom_ready = !control || (last_odom_ && last_odom_->header.stamp >= tick.stamp);
       const bool scan_ready = !control || scan_inputs_.empty() || last_scan_stamp_ >= tick.last_scan_stamp;
       if (!(odom_ready && scan_ready) && !late) return;
-      if (late) ROS_WARN_THROTTLE(5.0, "move_base: inputs of tick %lu missing, going on", (unsigned long)tick.tick);
+      if (late) warnThrottled("late inputs", 5.0, "inputs of tick " + std::to_string(tick.tick) + " missing, going on");
       last_tick_time_ = tick.stamp;
       if (control) {
         last_control_period_ = period_index;
@@ -119,8 +119,8 @@ void MoveBaseRos::insertScans(const ros::Time& time) {
       Pose2D sensor, origin;
       std::string error;
       if (!lookupPose(target.frame, scan->header.frame_id, at, sensor, error)) {
-        ROS_WARN_THROTTLE(5.0, "move_base: scan dropped, no transform %s <- %s: %s", target.frame.c_str(),
-                          scan->header.frame_id.c_str(), error.c_str());
+        warnThrottled("scan dropped", 5.0, "scan dropped, no transform " + target.frame + " <- " +
+                                               scan->header.frame_id + ": " + error);
         continue;
       }
       LaserScanData data{scan->angle_min, scan->angle_increment, scan->range_min, scan->range_max, scan->ranges,
@@ -145,7 +145,7 @@ void MoveBaseRos::controlStep(const ros::Time& stamp, const ros::Time& lookup_ti
   std::string error;
   if (!lookupPose(global_frame_, global_base_frame_, lookup_time, pose_global, error) ||
       !lookupPose(local_frame_, local_base_frame_, lookup_time, pose_local, error)) {
-    ROS_WARN_THROTTLE(5.0, "move_base: robot pose unavailable: %s", error.c_str());
+    warnThrottled("no pose", 5.0, "robot pose unavailable: " + error);
     if (core_->active()) publishCommand({});
     return;
   }

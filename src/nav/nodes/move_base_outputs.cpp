@@ -30,7 +30,7 @@ void MoveBaseRos::publishCommand(const Velocity2D& command) {
 
 void MoveBaseRos::publishOutputs(const CycleOutput& out, const Pose2D& pose, const ros::Time& stamp) {
   if (out.publish_command) publishCommand(out.command);
-  if (!out.recovery_started.empty()) ROS_WARN("move_base: running recovery behavior %s", out.recovery_started.c_str());
+  if (!out.recovery_started.empty()) ROS_WARN("%s: running recovery behavior %s", log_name_.c_str(), out.recovery_started.c_str());
   if (out.new_plan && plan_pub_.getNumSubscribers() > 0) plan_pub_.publish(conv::toPath(out.plan, global_frame_, stamp));
   if (!out.local_plan.empty() && local_plan_pub_.getNumSubscribers() > 0) {
     local_plan_pub_.publish(conv::toPath(out.local_plan, local_frame_, stamp));
@@ -40,17 +40,17 @@ void MoveBaseRos::publishOutputs(const CycleOutput& out, const Pose2D& pose, con
   waitForClock(stamp);  // actionlib stamps what follows with ros::Time::now()
   switch (out.outcome) {
     case CycleOutput::Outcome::kSucceeded:
-      ROS_INFO("move_base: %s", out.message.c_str());
+      ROS_INFO("%s: %s", log_name_.c_str(), out.message.c_str());
       endGoal();
       action_server_.setSucceeded(move_base_msgs::MoveBaseResult(), out.message);
       break;
     case CycleOutput::Outcome::kAborted:
-      ROS_ERROR("move_base: %s", out.message.c_str());
+      ROS_ERROR("%s: %s", log_name_.c_str(), out.message.c_str());
       endGoal();
       action_server_.setAborted(move_base_msgs::MoveBaseResult(), out.message);
       break;
     case CycleOutput::Outcome::kNone: {
-      if (!out.message.empty()) ROS_WARN_THROTTLE(1.0, "move_base: %s", out.message.c_str());
+      if (!out.message.empty()) warnThrottled("cycle", 1.0, out.message);
       move_base_msgs::MoveBaseFeedback feedback;
       feedback.base_position.header.frame_id = global_frame_;
       feedback.base_position.header.stamp = stamp;

@@ -19,6 +19,7 @@ MoveBaseRos::MoveBaseRos(ros::NodeHandle& nh, ros::NodeHandle& private_nh)
     : nh_(nh), private_nh_(private_nh), tf_source_(std::make_unique<TransformSource>()), tf_buffer_(tf_source_->buffer()),
       action_server_(nh, "move_base", false) {
   const ParamNode ns(conv::parameterTree(private_nh_), private_nh_.getNamespace().substr(1));
+  log_name_ = private_nh_.getNamespace().substr(1);
   const MoveBaseConfig config = readMoveBaseConfig(ns);
   // The project's own parameters: lock-step with the simulator, statistics.
   std::string robot = nh_.getNamespace();  // the node's or the nodelet's namespace
@@ -33,9 +34,9 @@ MoveBaseRos::MoveBaseRos(ros::NodeHandle& nh, ros::NodeHandle& private_nh)
   const std::string ack_topic = ns.getString("lockstep_ack_topic", "/simulator/lockstep_ack");
   tf_wait_ = ns.getDouble("lockstep_wait", 2.0, 0.0);
   stats_file_ = ns.getString("stats_file", "");
-  for (const std::string& key : ns.unreadKeys()) ROS_WARN("move_base: unknown parameter %s (ignored)", key.c_str());
+  for (const std::string& key : ns.unreadKeys()) ROS_WARN("%s: unknown parameter %s (ignored)", log_name_.c_str(), key.c_str());
   for (const std::string& renamed : config.renamed_parameters_used) {
-    ROS_INFO("move_base: read the old parameter name %s", renamed.c_str());
+    ROS_INFO("%s: read the old parameter name %s", log_name_.c_str(), renamed.c_str());
   }
   core_ = std::make_unique<MoveBaseCore>(config);
   global_frame_ = config.global_costmap.global_frame;
@@ -106,7 +107,7 @@ void MoveBaseRos::onGoal() {
   const geometry_msgs::PoseStamped& target = goal->target_pose;
   const std::string problem = conv::quaternionProblem(target.pose.orientation);
   if (!problem.empty()) {
-    ROS_ERROR("move_base: %s", problem.c_str());
+    ROS_ERROR("%s: %s", log_name_.c_str(), problem.c_str());
     core_->cancel();
     publishCommand({});
     endGoal();
@@ -123,7 +124,7 @@ void MoveBaseRos::onGoal() {
   } catch (const tf2::TransformException& error) {
     const std::string message = "Aborting on goal because it was sent in frame '" + target.header.frame_id +
                                 "', which cannot be transformed into '" + global_frame_ + "': " + error.what();
-    ROS_ERROR("move_base: %s", message.c_str());
+    ROS_ERROR("%s: %s", log_name_.c_str(), message.c_str());
     core_->cancel();
     publishCommand({});
     endGoal();
@@ -155,12 +156,12 @@ void MoveBaseRos::onMap(const nav_msgs::OccupancyGrid::ConstPtr& msg) {
   for (LayeredCostmap* costmap : {&core_->globalCostmap(), &core_->localCostmap()}) {
     for (StaticLayer* layer : costmap->layersOfType<StaticLayer>()) layer->setMap(occupancy);
   }
-  ROS_INFO("move_base: map %u x %u at %.3f m", msg->info.width, msg->info.height, msg->info.resolution);
+  ROS_INFO("%s: map %u x %u at %.3f m", log_name_.c_str(), msg->info.width, msg->info.height, msg->info.resolution);
 }
 
 bool MoveBaseRos::onMakePlan(nav_msgs::GetPlan::Request& req, nav_msgs::GetPlan::Response& res) {
   if (action_server_.isActive()) {
-    ROS_ERROR("move_base must be in an inactive state to make a plan for an external user");
+    ROS_ERROR("%s must be in an inactive state to make a plan for an external user", log_name_.c_str());
     return false;
   }
   Pose2D start, goal;
@@ -176,11 +177,11 @@ bool MoveBaseRos::onMakePlan(nav_msgs::GetPlan::Request& req, nav_msgs::GetPlan:
     req.goal.header.stamp = ros::Time(0);
     goal = conv::toPose2D(tf_buffer_.transform(req.goal, global_frame_).pose);
   } catch (const tf2::TransformException& ex) {
-    ROS_ERROR("move_base: make_plan: %s", ex.what());
+    ROS_ERROR("%s: make_plan: %s", log_name_.c_str(), ex.what());
     return false;
   }
   const PlanResult plan = core_->makePlan(start, goal, req.tolerance);
-  if (!plan.ok()) ROS_WARN("move_base: make_plan: %s", plan.message.c_str());
+  if (!plan.ok()) ROS_WARN("%s: make_plan: %s", log_name_.c_str(), plan.message.c_str());
   res.plan = conv::toPath(plan.path, global_frame_, ros::Time::now());
   return true;
 }
@@ -188,6 +189,14 @@ bool MoveBaseRos::onMakePlan(nav_msgs::GetPlan::Request& req, nav_msgs::GetPlan:
 bool MoveBaseRos::onClearCostmaps(std_srvs::Empty::Request&, std_srvs::Empty::Response&) {
   core_->clearCostmaps();
   return true;
+}
+
+void MoveBaseRos::warnThrottled(const std::string& key, double period, const std::string& text) const {
+  const ros::WallTime now = ros::WallTime::now();
+  const auto last = last_warned_.find(key);
+  if (last != last_warned_.end() && (now - last->second).toSec() < period) return;
+  last_warned_[key] = now;
+  ROS_WARN("%s: %s", log_name_.c_str(), text.c_str());
 }
 
 void MoveBaseRos::writeStats() const {

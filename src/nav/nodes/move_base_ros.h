@@ -19,6 +19,7 @@
 
 #include <deque>
 #include <functional>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -80,6 +81,10 @@ class MoveBaseRos {
   void publishDwaClouds(const CycleOutput& out, const ros::Time& stamp);
   double nowSeconds() const;
   void writeStats() const;
+  // A warning at most once per `period` s of wall time for each `key`, for this robot alone:
+  // ROS_WARN_THROTTLE throttles per line of code, which the move_bases of one nodelet manager
+  // share, so one robot's warning would hide another's.
+  void warnThrottled(const std::string& key, double period, const std::string& text) const;
 
   ros::NodeHandle nh_, private_nh_;
   std::unique_ptr<MoveBaseCore> core_;
@@ -102,6 +107,8 @@ class MoveBaseRos {
 
   std::string global_frame_, local_frame_, global_base_frame_, local_base_frame_;
   std::string robot_name_, stats_file_;
+  std::string log_name_;  // "tb3_0/move_base": every log line says which robot's move_base it is
+  mutable std::map<std::string, ros::WallTime> last_warned_;
   bool lockstep_ = false;
   double control_period_ = 0.1;
   int64_t last_control_period_ = -1;
