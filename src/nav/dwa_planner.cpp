@@ -452,6 +452,7 @@ std::vector<Trajectory> DwaPlanner::exploreSamples(const Pose2D& pose, const Vel
 std::vector<DwaPlanner::CellCosts> DwaPlanner::cellCosts() const {
   std::vector<CellCosts> cells;
   if (costmap_ == nullptr) return cells;
+  const double path_scale = pathScale(), goal_scale = goalScale();
   for (unsigned mx = 0; mx < costmap_->sizeX(); ++mx) {  // dwa_local_planner's order
     for (unsigned my = 0; my < costmap_->sizeY(); ++my) {
       const double path = path_grid_.distance(mx, my);
@@ -463,7 +464,7 @@ std::vector<DwaPlanner::CellCosts> DwaPlanner::cellCosts() const {
       }
       CellCosts cell{0.0, 0.0, path, goal, static_cast<double>(occupancy), 0.0};
       costmap_->mapToWorld(mx, my, cell.x, cell.y);
-      cell.total = pathScale() * path + goalScale() * goal + config_.occdist_scale * cell.occupancy;
+      cell.total = path_scale * path + goal_scale * goal + config_.occdist_scale * cell.occupancy;
       cells.push_back(cell);
     }
   }

@@ -18,8 +18,8 @@ namespace conv = ros_conversions;
 MoveBaseRos::MoveBaseRos(ros::NodeHandle& nh, ros::NodeHandle& private_nh)
     : nh_(nh), private_nh_(private_nh), tf_source_(std::make_unique<TransformSource>()), tf_buffer_(tf_source_->buffer()),
       action_server_(nh, "move_base", false) {
-  const ParamNode ns(conv::parameterTree(private_nh_), private_nh_.getNamespace().substr(1));
   log_name_ = private_nh_.getNamespace().substr(1);
+  const ParamNode ns(conv::parameterTree(private_nh_), log_name_);
   const MoveBaseConfig config = readMoveBaseConfig(ns);
   // The project's own parameters: lock-step with the simulator, statistics.
   std::string robot = nh_.getNamespace();  // the node's or the nodelet's namespace
