@@ -10,11 +10,13 @@
    logic-consistent, the launch ends by itself after writing its result in evaluate's format, and
    every amcl_pose is within 0.25 m / 0.35 rad of the stand-in's ground truth (its file).
 2. A policy trained in seconds (embedded, sequential preset) runs decentralised, one robot_actor
-   per robot, and completes its episode logic-consistently.
+   per robot, and completes two episodes logic-consistently; between them the robots drive back
+   to their start poses one at a time (reset_drive one_by_one): while tb3_0 drives, tb3_1 stands.
 """
 import json
 import math
 import os
+import re
 import sys
 import tempfile
 import threading
@@ -50,6 +52,9 @@ EXPECTED = {"odom": (Odometry, 30.0), "joint_states": (JointState, 30.0), "imu":
 RATE_TOLERANCE = 0.15      # relative, on a shared 2-core machine
 LOCALISED_XY, LOCALISED_YAW = 0.25, 0.35
 EPISODE_WALL = 420.0       # s: drive to start, a lab_2r episode in real time, the launch's start and end
+NEXT_EPISODE_WALL = 300.0  # s: one robot after the other back to its start pose, another episode
+#: The manager's log line of a robot's drive to its start pose, with its wall-clock stamp.
+RESET_LINE = re.compile(r"\[(\d+\.\d+)\]: reset: (\S+) driving to its start pose")
 
 
 def bringup_frames(ns):
@@ -106,14 +111,14 @@ class RealStandInTest(unittest.TestCase):
     def setUpClass(cls):
         rospy.init_node("real_test")
 
-    def run_real(self, work, args):
+    def run_real(self, work, args, episodes=1):
         out = os.path.join(work, "result.json")
-        launch = start_real_launch(["stand_in:=true", "go:=true", "episodes:=1", "nav:=builtin", "out:=" + out,
+        launch = start_real_launch(["stand_in:=true", "go:=true", "episodes:=%d" % episodes, "nav:=builtin", "out:=" + out,
                                     "ground_truth_dir:=" + work, *args], os.path.join(work, "launch.log"))
         return launch, out
 
-    def read_result(self, launch, out, work):
-        code = wait_exit(launch, EPISODE_WALL)
+    def read_result(self, launch, out, work, episodes=1):
+        code = wait_exit(launch, EPISODE_WALL + (episodes - 1) * NEXT_EPISODE_WALL)
         log = Path(work, "launch.log").read_text()[-3000:]
         self.assertIsNotNone(code, "real.launch did not end by itself:\n" + log)
         self.assertTrue(os.path.isfile(out), "no result file:\n" + log)
@@ -209,14 +214,32 @@ class RealStandInTest(unittest.TestCase):
             rospy.Subscriber("/%s/task_choice" % ns, TaskChoice, lambda m, ns=ns: choices[ns].append(m.action),
                              queue_size=50)
         # The sequential preset trains with mask finished (real.launch assumes the tuned preset's logic).
-        launch, out = self.run_real(work, ["method:=policy", "mask:=finished", "policy:=" + os.path.join(run, "actor.pt")])
-        document = self.read_result(launch, out, work)
+        launch, out = self.run_real(work, ["method:=policy", "mask:=finished", "policy:=" + os.path.join(run, "actor.pt")],
+                                    episodes=2)
+        document = self.read_result(launch, out, work, episodes=2)
         self.assertEqual(document["mode"], "real")
         self.assertEqual(document["execution"], "decentralised")
-        record = document["records"][0]
-        self.assertTrue(record["complete"])
-        self.assertTrue(record["logic_consistent"])
+        self.assertEqual(len(document["records"]), 2)
+        for record in document["records"]:
+            self.assertTrue(record["complete"])
+            self.assertTrue(record["logic_consistent"])
         self.assertTrue(all(choices[ns] for ns in ROBOTS), choices)
+        self.check_reset_one_by_one(work)
+
+    def check_reset_one_by_one(self, work):
+        """The reset before episode 2: tb3_0's drive starts, then tb3_1's once tb3_0 has arrived;
+        in between tb3_1 stands where episode 1 left it and tb3_0 drives."""
+        starts = [(float(m.group(1)), m.group(2)) for m in RESET_LINE.finditer(Path(work, "launch.log").read_text())]
+        self.assertEqual([ns for _, ns in starts], ["tb3_0", "tb3_1"] * 2, starts)   # the reset of each episode
+        (t0, _), (t1, _) = starts[2], starts[3]
+        tracks = read_ground_truth(Path(work).glob("*.csv"))
+
+        def travelled(ns):
+            points = [(x, y) for t, x, y, _ in tracks[ns] if t0 <= t <= t1]
+            return sum(math.dist(a, b) for a, b in zip(points, points[1:]))
+
+        self.assertGreater(travelled("tb3_0"), 0.5, "tb3_0 did not drive back first")
+        self.assertLess(travelled("tb3_1"), 0.02, "tb3_1 drove while tb3_0 drove back")
 
 
 if __name__ == "__main__":

@@ -62,6 +62,8 @@ def test_real_mode_settings_come_from_the_config_file_and_the_node():
                                       "go": True, "scan_silent_after": 2.5, "aborted_episode_file": "/tmp/a.json"}, NODE)
     assert settings.mode == "real"
     assert settings.real.reset == "current" and settings.real.go
+    assert settings.real.reset_drive == "one_by_one"
+    assert read_manager_settings({"scenario": "s.xml", "reset_drive": "together"}, NODE).real.reset_drive == "together"
     assert settings.real.limits.scan_silent_after == 2.5
     assert settings.real.limits.odom_silent_after == read_yaml(default_config_path("task_manager.yaml")).data["odom_silent_after"]
     assert settings.real.aborted_episode_file == "/tmp/a.json"
@@ -72,6 +74,7 @@ def test_real_mode_settings_come_from_the_config_file_and_the_node():
     ({"mode": "robots"}, NODE + "/mode: 'robots' is not one of simulation, real"),
     ({"mode": "real"}, NODE + "/localization: must be amcl in real mode (real robots have no ground truth), got 'ground_truth'"),
     ({"reset": "home"}, NODE + "/reset: 'home' is not one of start, current"),
+    ({"reset_drive": "all"}, NODE + "/reset_drive: 'all' is not one of one_by_one, together"),
     ({"go": "yes"}, NODE + "/go: expected true or false, got 'yes'"),
     ({"odom_silent_after": 0}, NODE + "/odom_silent_after: must be > 0.0, got 0.0"),
     ({"master_lost_after": "1s"}, NODE + "/master_lost_after: expected a number, got '1s'"),

@@ -86,10 +86,10 @@ def test_a_report_row_takes_evaluates_document_and_the_recordings(tmp_path):
 
 
 @pytest.mark.parametrize("name, value", [("method", "exakt"), ("method", "exact,policy"), ("stand_in_processes", "two"),
-                                         ("nav", ""), ("reset", "now")])
+                                         ("nav", ""), ("reset", "now"), ("reset_drive", "all")])
 def test_a_bad_choice_of_real_launch_is_one_line(name, value):
     from marl_mrta.ros.launch_args import real_choices
-    assert real_choices(method="exact,ga", stand_in_processes="per_robot", nav="auto", reset="current")
+    assert real_choices(method="exact,ga", stand_in_processes="per_robot", nav="auto", reset="current", reset_drive="together")
     with pytest.raises(ValueError) as error:
         real_choices(**{name: value})
     assert str(error.value).startswith(f"real.launch: {name}:='{value}': must be one of ")

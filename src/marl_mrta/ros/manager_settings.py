@@ -27,6 +27,7 @@ ROBOTS_PER_LOST_AFTER = 4
 MODES = ("simulation", "real")
 #: Real mode: where an episode starts: the scenario's start poses (driven to) or where the robots stand.
 RESETS = ("start", "current")
+RESET_DRIVES = ("one_by_one", "together")
 
 
 @dataclass(frozen=True)
@@ -61,7 +62,8 @@ class RealRobotSettings:
     reset: str = "start"                # start: drive to the scenario's start poses | current: start where they stand
     go: bool = False                    # start each episode without the operator's ~go (unattended)
     limits: SafetyLimits = SafetyLimits()   # silences and master loss that stop the fleet
-    reset_timeout: float = 120.0        # s of wall time for the robots to reach their start poses
+    reset_drive: str = "one_by_one"     # reset start: one robot at a time (model/fleet.py) | together
+    reset_timeout: float = 120.0        # s of wall time for each drive of the reset to reach its start poses
     stop_hold: float = 1.0              # s of wall time a stop keeps sending zero cmd_vel (10 Hz)
     aborted_episode_file: str = ""      # JSON file for an aborted episode's record ("": none)
 
@@ -115,6 +117,7 @@ def read_manager_settings(params: Dict[str, Any], namespace: str,
                           move_base_silent_after=p.number("move_base_silent_after", above=0.0),
                           master_lost_after=p.number("master_lost_after", above=0.0))
     real = RealRobotSettings(reset=p.choice("reset", RESETS), go=p.boolean("go"), limits=limits,
+                             reset_drive=p.choice("reset_drive", RESET_DRIVES),
                              reset_timeout=p.number("reset_timeout", above=0.0),
                              stop_hold=p.number("stop_hold", minimum=0.0),
                              aborted_episode_file=p.string("aborted_episode_file"))

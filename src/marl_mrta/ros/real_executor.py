@@ -4,7 +4,7 @@ decision process and every task rule stay the one ROS-free implementation.
 
 What differs from the simulation (docs/real_robots.md): time is the wall clock, no /clock and no
 simulator; a reset cannot teleport: every robot drives to its start pose through its move_base
-(`reset: current` takes the poses where they stand instead), then the episode waits for the
+(one at a time by default, `reset_drive`; `reset: current` takes the poses where they stand instead), then the episode waits for the
 operator's go (~go, or `go: true` unattended). Every fault stops every robot at once: a robot
 whose odometry, scan or move_base falls silent, a lost ROS master (ros/fleet_link.py watches,
 ros/safety.py decides), a goal move_base aborts, the e-stop, the node shutting down. A stop
@@ -21,7 +21,8 @@ import rospy
 import tf2_ros
 
 from marl_mrta.env.executor import RobotOutcome, StepOutcome
-from marl_mrta.model.scenario import Scenario
+from marl_mrta.model.fleet import reset_groups
+from marl_mrta.model.scenario import Scenario, footprint_radius
 from marl_mrta.ros.fleet_link import FleetStop, FleetWatch
 from marl_mrta.ros.localization_link import LocalizationLink
 from marl_mrta.ros.manager_settings import RealRobotSettings, RosExecutorSettings
@@ -196,28 +197,39 @@ class RealExecutor:
             base.forget()
 
     def _drive_to_starts(self) -> None:
-        """Every robot to its start pose through its move_base, all at once; any failure stops all."""
-        rospy.loginfo("reset: %s driving to their start poses", ", ".join(self.namespaces))
-        for base, (x, y, yaw) in zip(self.bases, self._starts):
-            base.send(x, y, yaw)
+        """Every robot to its start pose through its move_base, one at a time (`reset_drive`,
+        model/fleet.py) or all at once; any failure stops all."""
+        if self.real.reset_drive == "one_by_one":
+            groups = reset_groups([pose[:2] for pose in self.poses()], [start[:2] for start in self._starts],
+                                  footprint_radius())
+        else:
+            groups = [list(range(self.n_robots))]
+        for group in groups:
+            self._drive_group_to_starts(group)
+        for base in self.bases:
+            base.forget()
+
+    def _drive_group_to_starts(self, group: Sequence[int]) -> None:
+        rospy.loginfo("reset: %s driving to %s start pose%s", ", ".join(self.namespaces[i] for i in group),
+                      "its" if len(group) == 1 else "their", "" if len(group) == 1 else "s")
+        for i in group:
+            self.bases[i].send(*self._starts[i])
         deadline = time.monotonic() + self.real.reset_timeout
-        while not all(base.result is not None for base in self.bases):
-            failed = self._failed_goal(range(self.n_robots))
+        while not all(self.bases[i].result is not None for i in group):
+            failed = self._failed_goal(group)
             if failed or self.monitor.tripped or time.monotonic() > deadline:
                 reason = self.monitor.reason or failed or (
-                    "reset: " + ", ".join(ns for ns, base in zip(self.namespaces, self.bases) if base.result is None)
+                    "reset: " + ", ".join(self.namespaces[i] for i in group if self.bases[i].result is None)
                     + f" did not reach the start pose within {self.real.reset_timeout:.0f} s of wall time")
                 self.trip(reason)
                 raise SimulatorLost(f"reset failed: {reason}")
             if rospy.is_shutdown():
                 raise SimulatorLost("node shutting down")
             time.sleep(POLL)
-        failed = self._failed_goal(range(self.n_robots))
+        failed = self._failed_goal(group)
         if failed:
             self.trip(failed)
             raise SimulatorLost(f"reset failed: {failed}")
-        for base in self.bases:
-            base.forget()
 
     def _await_go(self) -> None:
         if self.real.go:
