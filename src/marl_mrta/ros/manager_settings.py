@@ -27,6 +27,7 @@ ROBOTS_PER_LOST_AFTER = 4
 MODES = ("simulation", "real")
 #: Real mode: where an episode starts: the scenario's start poses (driven to) or where the robots stand.
 RESETS = ("start", "current")
+#: Real mode, reset start: the robots drive back one at a time (model/fleet.py) or all at once.
 RESET_DRIVES = ("one_by_one", "together")
 
 

@@ -3,13 +3,14 @@ on wall time. Implements env.executor.Executor beside ros/executor.py (the simul
 decision process and every task rule stay the one ROS-free implementation.
 
 What differs from the simulation (docs/real_robots.md): time is the wall clock, no /clock and no
-simulator; a reset cannot teleport: every robot drives to its start pose through its move_base
-(one at a time by default, `reset_drive`; `reset: current` takes the poses where they stand instead), then the episode waits for the
-operator's go (~go, or `go: true` unattended). Every fault stops every robot at once: a robot
-whose odometry, scan or move_base falls silent, a lost ROS master (ros/fleet_link.py watches,
-ros/safety.py decides), a goal move_base aborts, the e-stop, the node shutting down. A stop
-cancels every goal and sends zero cmd_vel (held for `stop_hold`); the step returns `aborted`
-with the reason, which ends the episode (env/task_env.py) and names the robot and the part.
+simulator; a reset cannot teleport: every robot drives to its start pose through its move_base,
+one at a time by default (`reset_drive`; `reset: current` takes the poses where they stand
+instead), then the episode waits for the operator's go (~go, or `go: true` unattended). Every
+fault stops every robot at once: a robot whose odometry, scan or move_base falls silent, a lost
+ROS master (ros/fleet_link.py watches, ros/safety.py decides), a goal move_base aborts, the
+e-stop, the node shutting down. A stop cancels every goal and sends zero cmd_vel (held for
+`stop_hold`); the step returns `aborted` with the reason, which ends the episode
+(env/task_env.py) and names the robot and the part.
 """
 from __future__ import annotations
 
