@@ -38,7 +38,7 @@ from scipy import ndimage
 
 from marl_mrta.common.paths import package_root
 from marl_mrta.model.occupancy_map import FREE, OCCUPIED, MapOrigin, OccupancyMap, load_map, save_map
-from marl_mrta.model.scenario import Scenario, ScenarioError, footprint_radius, load_scenario
+from marl_mrta.model.scenario import Scenario, ScenarioError, footprint_radius, footprint_spacing, load_scenario
 from marl_mrta.model.travel import TravelModel, nominal_travel_table, suggest_nav_thresholds
 
 LAYOUTS = ("rooms", "corridors", "pillars")
@@ -86,8 +86,8 @@ class ScenarioRequest:
             raise GeneratorError(f"map size: {self.width:g} x {self.height:g} m is below 3 x 3 m")
         if not self.service_times or min(self.service_times) < 0.0:
             raise GeneratorError("service_times: need at least one value, none negative")
-        if self.spacing < 2.0 * footprint_radius():
-            raise GeneratorError(f"spacing: {self.spacing:g} m is below a robot's footprint ({2 * footprint_radius():g} m)")
+        if self.spacing < footprint_spacing():
+            raise GeneratorError(f"spacing: {self.spacing:g} m is below a robot's footprint ({footprint_spacing():g} m)")
 
 
 def shipped_maps() -> dict:

@@ -25,9 +25,14 @@ from marl_mrta.model.robot import load_robot
 
 
 def footprint_radius() -> float:
-    """m, the radius of the robot's footprint circle (config/robot_burger.yaml `robot_radius`):
-    two robots, or a robot and a goal another robot is sent to, closer than twice it touch."""
+    """m, the radius of the robot's footprint circle (config/robot_burger.yaml `robot_radius`)."""
     return load_robot().radius
+
+
+def footprint_spacing() -> float:
+    """m, the least distance between two robots' centres, or between a robot and the goal another
+    robot is sent to: closer, their footprints overlap (two footprint radii)."""
+    return 2.0 * footprint_radius()
 
 
 class ScenarioError(ValueError):
@@ -192,14 +197,14 @@ def load_scenario(path: Union[str, Path]) -> Scenario:
     except MapFileError as error:
         raise reader.fail(map_element, f"cannot load the map: {error}") from None
 
-    radius = footprint_radius()
+    spacing = footprint_spacing()
     robots_element = reader.single(root, "robots")
     robots = _read_robots(reader, robots_element, grid_map)
-    _check_apart(reader, robots_element, [r.start for r in robots], radius, "robot", "start pose",
+    _check_apart(reader, robots_element, [r.start for r in robots], spacing, "robot", "start pose",
                  "overlaps the footprint of robot", [r.id for r in robots])
     tasks_element = reader.single(root, "tasks")
     tasks = _read_tasks(reader, tasks_element, grid_map)
-    _check_apart(reader, tasks_element, [t.goal for t in tasks], radius, "task", "goal",
+    _check_apart(reader, tasks_element, [t.goal for t in tasks], spacing, "task", "goal",
                  "is closer than a robot's footprint to the goal of task", [t.id for t in tasks])
     predecessors = _read_precedence(reader, reader.single(root, "precedence", required=False), tasks)
 
@@ -242,11 +247,10 @@ def _read_posed(reader: _Reader, parent: ET.Element, tag: str, attributes: Seque
     return found
 
 
-def _check_apart(reader: _Reader, parent: ET.Element, poses: Sequence[Pose2D], radius: float, tag: str,
+def _check_apart(reader: _Reader, parent: ET.Element, poses: Sequence[Pose2D], need: float, tag: str,
                  what: str, problem: str, ids: Sequence[str]) -> None:
-    """Poses closer than two footprint radii: the later one is named (with the earlier)."""
+    """Poses closer than `need` (footprint_spacing): the later one is named (with the earlier)."""
     elements = [e for e in parent if e.tag == tag]
-    need = 2.0 * radius
     for j in range(len(poses)):
         for i in range(j):
             apart = math.hypot(poses[j].x - poses[i].x, poses[j].y - poses[i].y)

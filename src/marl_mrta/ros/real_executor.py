@@ -23,7 +23,7 @@ import tf2_ros
 
 from marl_mrta.env.executor import RobotOutcome, StepOutcome
 from marl_mrta.model.fleet import reset_groups
-from marl_mrta.model.scenario import Scenario, footprint_radius
+from marl_mrta.model.scenario import Scenario, footprint_spacing
 from marl_mrta.ros.fleet_link import FleetStop, FleetWatch
 from marl_mrta.ros.localization_link import LocalizationLink
 from marl_mrta.ros.manager_settings import RealRobotSettings, RosExecutorSettings
@@ -202,7 +202,7 @@ class RealExecutor:
         model/fleet.py) or all at once; any failure stops all."""
         if self.real.reset_drive == "one_by_one":
             groups = reset_groups([pose[:2] for pose in self.poses()], [start[:2] for start in self._starts],
-                                  footprint_radius())
+                                  footprint_spacing())
         else:
             groups = [list(range(self.n_robots))]
         for group in groups:
