@@ -9,8 +9,8 @@ from marl_mrta.apps.bench_scale import main as bench_scale_main
 SOLVED_2X8 = {
     "size": "2x8", "scenario": "scenarios/lab_2r.xml", "robots": 2, "tasks": 8,
     "reference": {"time_to_optimum": 0.04, "wall_seconds": 0.04}, "cpsat": {"10": {"gap": 0.0}, "60": {"gap": 0.0}},
-    "best_makespan": 46.127, "lower_bound": 46.127, "gap": 0.0,
-    "methods": {m: {"makespan": 46.127, "ratio_to_best": 1.0, "peak_memory_mb": 100.0}
+    "best_makespan": 48.043, "lower_bound": 48.043, "gap": 0.0,
+    "methods": {m: {"makespan": 48.043, "ratio_to_best": 1.0, "peak_memory_mb": 100.0}
                 for m in ("random", "ga", "auction", "exact")},
     "mappo": None, "ros": None,
 }
@@ -24,7 +24,7 @@ def test_a_bad_part_is_one_line_and_exit_2(tmp_path, capsys):
 
 
 def test_part_mappo_fine_tunes_and_keeps_the_other_figures(tmp_path):
-    kept_4x8 = dict(SOLVED_2X8, size="4x8", best_makespan=24.815, lower_bound=24.815)
+    kept_4x8 = dict(SOLVED_2X8, size="4x8", best_makespan=25.992, lower_bound=25.992)
     (tmp_path / "bench_scale.json").write_text(json.dumps({"headline": [], "sizes": [SOLVED_2X8, kept_4x8]}))
     assert bench_scale_main(["--out", str(tmp_path), "--sizes", "2x8", "--parts", "mappo", "--mappo-seconds", "3"]) == 0
     document = json.loads((tmp_path / "bench_scale.json").read_text())
@@ -34,7 +34,7 @@ def test_part_mappo_fine_tunes_and_keeps_the_other_figures(tmp_path):
     assert two["methods"] == SOLVED_2X8["methods"] and two["ros"] is None   # parts not asked for: as they were
     mappo = two["mappo"]
     # The generalist is at lab_2r's optimum from the start (test_mappo_generalist), and keeps it.
-    assert abs(mappo["greedy_makespan"] - 46.127) < 0.01 and abs(mappo["ratio_to_best"] - 1.0) < 1e-3
+    assert abs(mappo["greedy_makespan"] - 48.043) < 0.01 and abs(mappo["ratio_to_best"] - 1.0) < 1e-3
     assert mappo["time_to_within_5pct_s"] is not None and 0 < mappo["time_to_within_5pct_s"] <= mappo["fine_tuning_s"]
     assert mappo["fine_tuning_s"] >= 3.0 and mappo["updates"] >= 1
     figures = {row["figure"] for row in document["headline"]}

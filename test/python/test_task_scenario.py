@@ -89,8 +89,8 @@ def test_goal_where_navigation_cannot_plan_is_rejected_when_building_the_environ
     load_scenario(path)   # on a free cell: the file itself is well-formed
     with pytest.raises(ScenarioError) as error:
         make_env(path)
-    assert str(error.value) == (f"{path}: <task id=\"A1\">: goal (0.05, 1) is within 0.105 m of an obstacle, "
-                                "where navigation cannot plan")
+    assert str(error.value) == (f"{path}: <task id=\"A1\">: goal (0.05, 1): in an obstacle or the inscribed zone "
+                                "of the global costmap (cost 253)")
 
 
 def test_task_no_start_can_reach_is_named_when_building_the_environment():

@@ -13,8 +13,6 @@ from marl_mrta.model.robot import load_robot
 from marl_mrta.model.travel import TravelModel
 
 MASK_MODES = ("none", "finished", "logic")
-#: The navigation's costmap parameters, in config/nav/ (TurtleBot3's file).
-COSTMAP_FILE = "costmap_common_params_burger.yaml"
 
 
 @dataclass(frozen=True)
@@ -52,20 +50,17 @@ def load_embedded_settings(path: Optional[Union[str, Path]] = None, noise_path: 
                            robot_path: Optional[Union[str, Path]] = None,
                            nav_config_dir: Optional[Union[str, Path]] = None) -> EmbeddedSettings:
     """config/task_embedded.yaml with the robot (config/robot_burger.yaml), the noise profiles
-    (config/noise_profiles.yaml) and the navigation's costmap file (config/nav/) it builds on."""
+    (config/noise_profiles.yaml) and the navigation's parameter files (config/nav/, the files
+    robot_nav.launch loads) on which the travel paths are planned."""
     root = read_yaml(path if path is not None else default_config_path("task_embedded.yaml"))
     robot = load_robot(robot_path)
     travel = root.section("travel")
-    # The inflation the navigation's own costmaps use (the file robot_nav.launch loads into both).
-    costmap = read_yaml(Path(nav_config_dir if nav_config_dir is not None else default_config_path("nav"))
-                        / COSTMAP_FILE)
     model = TravelModel(
-        inscribed_radius=robot.radius,
-        inflation_radius=costmap.number("inflation_radius", above=0.0),
-        cost_scaling_factor=costmap.number("cost_scaling_factor", above=0.0),
+        nav_config_dir=str(Path(nav_config_dir if nav_config_dir is not None else default_config_path("nav")).resolve()),
         linear_speed=robot.max_linear_velocity,
         angular_speed=travel.number("angular_speed", above=0.0),
         min_goal_time=travel.number("min_goal_time", above=0.0),
+        heading_lookahead=travel.number("heading_lookahead", above=0.0),
     )
     profiles = load_noise_profiles(noise_path)
     default = root.choice("profile", list(profiles))

@@ -169,7 +169,7 @@ TEST(Travel, AnUnreachablePoseReportsItsIndex) {
   const Planned walled_in = plan(map.yaml(), kNavConfig, {0.5, 0.5, 0.0, 1.5, 2.5, 0.0, 3.0, 1.5, 0.0, 3.6, 0.4, 0.0});
   EXPECT_EQ(nullptr, walled_in.travel);
   EXPECT_EQ(2, walled_in.failed_node) << walled_in.error;
-  EXPECT_EQ(0u, walled_in.error.find("pose 2 (3.00, 1.50): 6 of the 6 plans from and to it failed (")) << walled_in.error;
+  EXPECT_EQ(0u, walled_in.error.find("pose 2 (3.00, 1.50): cannot be reached: 6 of the 6 plans from and to it failed (")) << walled_in.error;
 
   // Pose 1 is in the box's wall: in an obstacle of the global costmap.
   const Planned in_wall = plan(map.yaml(), kNavConfig, {0.5, 0.5, 0.0, 2.525, 1.5, 0.0, 1.5, 2.5, 0.0});
