@@ -42,6 +42,7 @@ def free_port() -> int:
 def run_ros_evaluation(scenario: Path, episodes: int, out: Path, seed: int, timeout: float,
                        methods: Sequence[str] = METHODS) -> float:
     """evaluate.launch on its own master; returns its wall time. Raises RuntimeError on failure."""
+    out = Path(out).resolve()   # the launched nodes run in ROS_HOME, not here
     port = free_port()
     env = dict(os.environ, ROS_MASTER_URI=f"http://localhost:{port}")
     command = ["roslaunch", "-p", str(port), "marl_mrta", "evaluate.launch", f"scenario:={scenario}",

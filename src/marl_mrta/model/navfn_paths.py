@@ -15,6 +15,8 @@ from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from marl_mrta.common.config import ConfigError
+
 LIBRARY_NAME = "libmarl_mrta_travel.so"
 _ERROR_SIZE = 1024
 
@@ -27,8 +29,9 @@ class PlanningError(ValueError):
         self.pose = pose
 
 
-class LibraryMissing(RuntimeError):
-    """The package's C++ library is not built or not on the library path."""
+class LibraryMissing(ConfigError):
+    """The package's C++ library is not built or not on the library path (an installation
+    problem, reported in one line as a configuration error is)."""
 
 
 _library: Optional[ctypes.CDLL] = None

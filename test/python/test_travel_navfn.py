@@ -1,0 +1,53 @@
+"""The embedded travel times come from navigation's own planner: the table's paths are the
+paths libmarl_mrta_travel.so plans (navfn on move_base's global costmap), the turns follow the
+path's direction over `heading_lookahead`, and a bad navigation directory is one line."""
+import math
+
+import numpy as np
+import pytest
+
+from marl_mrta.common.config import ConfigError
+from marl_mrta.common.paths import default_config_path, package_root
+from marl_mrta.env.factory import scenario_travel_table
+from marl_mrta.env.settings import load_embedded_settings
+from marl_mrta.model.navfn_paths import plan_all_pairs
+from marl_mrta.model.scenario import load_scenario
+from marl_mrta.model.travel import nominal_travel_table, path_heading, scenario_poses
+
+LAB_2R = package_root() / "scenarios" / "lab_2r.xml"
+
+
+def test_the_tables_paths_are_navfns_own_from_the_robots_pose_to_the_goal():
+    scenario = load_scenario(LAB_2R)
+    table = scenario_travel_table(scenario)
+    poses = scenario_poses(scenario)
+    navfn = plan_all_pairs(str(scenario.map_path), str(default_config_path("nav")), poses)
+    for a in range(len(poses)):
+        for b in range(len(poses)):
+            if a == b:
+                continue
+            path = table.paths[a][b]
+            assert tuple(path[0]) == pytest.approx(poses[a][:2])        # the pose, not its cell's corner
+            assert tuple(path[-1]) == pytest.approx(poses[b][:2])
+            np.testing.assert_array_equal(path[1:len(navfn[a][b])], navfn[a][b][1:])
+            assert table.length[a, b] == pytest.approx(np.hypot(*np.diff(path, axis=0).T).sum())
+            assert table.nominal_time[a, b] >= table.length[a, b] / table.model.linear_speed
+
+
+def test_turns_are_to_the_paths_direction_over_the_lookahead():
+    # A cell's corner 0.05 m off the line, then straight along +x: the first segment points at
+    # 45 degrees, the path's direction over 0.5 m at about 6.
+    points = np.array([(0.0, 0.0), (0.05, 0.05), (0.55, 0.05), (2.0, 0.05)])
+    assert path_heading(points, 0.01) == pytest.approx(math.pi / 4)
+    assert path_heading(points, 0.5) == pytest.approx(math.atan2(0.05, 0.55))
+    assert path_heading(points, 10.0) == pytest.approx(math.atan2(0.05, 2.0))   # shorter path: its end
+
+
+def test_a_navigation_directory_without_the_costmap_file_is_one_line(tmp_path):
+    model = load_embedded_settings(nav_config_dir=tmp_path).travel
+    with pytest.raises(ConfigError) as error:
+        nominal_travel_table(load_scenario(LAB_2R), model)
+    text = str(error.value)
+    assert "\n" not in text and text.startswith("travel planning on ")
+    assert "costmap_common_params_burger.yaml: cannot be read" in text
+
