@@ -28,6 +28,21 @@ def test_a_mode_not_run_keeps_its_last_result(tmp_path):
     assert any("candidates" in figure and value == 61.5 for figure, value in values.items())
 
 
+def test_an_embedded_run_keeps_the_ros_figures(tmp_path):
+    path = tmp_path / "bench_mappo.json"
+    merge_into(path, ros_section(scratch={"time_to_policy_s": 145.1, "cap_minutes": 15.0, "steps_per_s": 3.7}))
+    embedded_row = {"figure": "time to policy, embedded, lab_2r (median, sequential)", "value": 0.9, "unit": "s",
+                    "goal": "<= 60"}
+    bench.write_embedded_figures(path, {"time_to_policy": {"median_s": 0.9}, "headline": [embedded_row]})
+
+    document = json.loads(path.read_text())
+    assert document["time_to_policy"] == {"median_s": 0.9}
+    assert document["ros"]["scratch"]["time_to_policy_s"] == 145.1
+    values = {row["figure"]: row["value"] for row in document["headline"]}
+    assert values["time to policy, embedded, lab_2r (median, sequential)"] == 0.9
+    assert any("from scratch" in figure and value == 145.1 for figure, value in values.items())
+
+
 def test_a_rerun_mode_replaces_its_old_result(tmp_path):
     path = tmp_path / "bench_mappo.json"
     merge_into(path, ros_section(pretrained={"time_to_policy_s": 900.0}))

@@ -186,10 +186,20 @@ def main(argv: Optional[List[str]] = None) -> int:
              "value": comparison["paper_hyperparameters_tuned_env"]["ratio_to_exact"], "unit": "", "goal": ""},
         ],
     }
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "bench_mappo.json").write_text(json.dumps(result, indent=2))
+    write_embedded_figures(out / "bench_mappo.json", result)
     log(f"wrote {out / 'bench_mappo.json'}")
     return 0
+
+
+def write_embedded_figures(path: Path, result: dict) -> None:
+    """bench_mappo.json with the embedded figures replaced; the ros-backend ones (`--ros`), not
+    measured by this run, stay as they were."""
+    earlier = json.loads(path.read_text()) if path.is_file() else {}
+    if "ros" in earlier:
+        result = dict(result, ros=earlier["ros"],
+                      headline=result["headline"] + [row for row in earlier.get("headline", []) if "ros" in row["figure"]])
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(result, indent=2))
 
 
 
