@@ -122,9 +122,9 @@ std::unique_ptr<MarlMrtaTravel> planAllPairs(const std::string& map_yaml, const 
     if (failures[i] > failures[worst]) worst = i;
   }
   if (n > 0 && failures[worst] > 0) {
-    throw PoseProblem(worst, describePose(worst, poses[worst]) + ": cannot be reached: " + std::to_string(failures[worst]) + " of the " +
-                                 std::to_string(2 * (n - 1)) + " plans from and to it failed (" + first_failure[worst] +
-                                 ")");
+    throw PoseProblem(worst, describePose(worst, poses[worst]) + ": cannot be reached: " +
+                                 std::to_string(failures[worst]) + " of the " + std::to_string(2 * (n - 1)) +
+                                 " plans from and to it failed (" + first_failure[worst] + ")");
   }
   return travel;
 }

@@ -2,6 +2,10 @@
 paths libmarl_mrta_travel.so plans (navfn on move_base's global costmap), the turns follow the
 path's direction over `heading_lookahead`, and a bad navigation directory is one line."""
 import math
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -10,7 +14,7 @@ from marl_mrta.common.config import ConfigError
 from marl_mrta.common.paths import default_config_path, package_root
 from marl_mrta.env.factory import scenario_travel_table
 from marl_mrta.env.settings import load_embedded_settings
-from marl_mrta.model.navfn_paths import plan_all_pairs
+from marl_mrta.model.navfn_paths import LIBRARY_NAME, plan_all_pairs
 from marl_mrta.model.scenario import load_scenario
 from marl_mrta.model.travel import nominal_travel_table, path_heading, scenario_poses
 
@@ -51,3 +55,44 @@ def test_a_navigation_directory_without_the_costmap_file_is_one_line(tmp_path):
     assert "\n" not in text and text.startswith("travel planning on ")
     assert "costmap_common_params_burger.yaml: cannot be read" in text
 
+
+
+def test_along_each_path_ends_at_its_length():
+    # The proximity check places robots by distance along their paths (env/embedded.py).
+    table = scenario_travel_table(load_scenario(LAB_2R))
+    for a in range(table.n_nodes):
+        for b in range(table.n_nodes):
+            along = table.path_along[a][b]
+            assert len(along) == len(table.paths[a][b]) and along[0] == 0.0
+            assert np.all(np.diff(along) >= 0.0) and along[-1] == pytest.approx(table.length[a, b])
+
+
+def _plan_in_a_shell(environment):
+    """plan_all_pairs in a fresh interpreter (the dynamic loader reads LD_LIBRARY_PATH at start)."""
+    script = ("import sys\n"
+              "from marl_mrta.common.paths import default_config_path\n"
+              "from marl_mrta.model.navfn_paths import plan_all_pairs\n"
+              "from marl_mrta.model.scenario import load_scenario\n"
+              "from marl_mrta.model.travel import scenario_poses\n"
+              f"s = load_scenario({str(LAB_2R)!r})\n"
+              "paths = plan_all_pairs(str(s.map_path), str(default_config_path('nav')), scenario_poses(s))\n"
+              "print(len(paths[0][1]))\n")
+    return subprocess.run([sys.executable, "-c", script], env=environment, capture_output=True, text=True,
+                          timeout=120)
+
+
+def test_the_library_is_found_through_the_catkin_prefixes_and_missing_is_one_line():
+    library_dirs = [d for d in os.environ.get("LD_LIBRARY_PATH", "").split(os.pathsep)
+                    if d and (Path(d) / LIBRARY_NAME).exists()]
+    if not library_dirs:
+        pytest.skip(f"{LIBRARY_NAME} is not on LD_LIBRARY_PATH (source the workspace's setup.bash)")
+    prefix = str(Path(library_dirs[0]).parent)
+    kept = os.pathsep.join(d for d in os.environ["LD_LIBRARY_PATH"].split(os.pathsep) if d not in library_dirs)
+    found = _plan_in_a_shell({**os.environ, "LD_LIBRARY_PATH": kept, "CMAKE_PREFIX_PATH": prefix})
+    assert found.returncode == 0, found.stderr
+    assert int(found.stdout) > 2   # a planned path, not the straight line
+    missing = _plan_in_a_shell({**os.environ, "LD_LIBRARY_PATH": kept, "CMAKE_PREFIX_PATH": ""})
+    assert missing.returncode != 0
+    last = missing.stderr.strip().splitlines()[-1]
+    assert last.endswith(f"{LIBRARY_NAME} not found: build the package (make build) and source its "
+                         "workspace's devel/setup.bash")

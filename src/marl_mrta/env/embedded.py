@@ -114,8 +114,7 @@ class EmbeddedExecutor:
                 x, y = self.table.node_poses[start][:2]
                 tracks.append(np.broadcast_to(np.array([x, y]), (len(times), 2)))
                 continue
-            seg = np.hypot(*np.diff(path, axis=0).T)
-            along = np.concatenate([[0.0], np.cumsum(seg)])
+            along = self.table.path_along[start][goal]
             turn = min(self.table.turn_rows[start][goal], nav)
             drive = max(nav - turn, 1e-9)
             s = np.clip((times - turn) / drive, 0.0, 1.0) * along[-1]

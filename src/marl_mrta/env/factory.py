@@ -48,12 +48,9 @@ def make_env(scenario: Union[str, Path, Scenario], executor: Union[str, Executor
     except ConfigError as error:
         raise ScenarioError(f"{scenario.source}: <reward>: {error}") from None
     if not isinstance(executor, str):
-        grid_map = scenario.load_map()
-        bounds = (grid_map.origin.x, grid_map.origin.y, grid_map.width * grid_map.resolution,
-                  grid_map.height * grid_map.resolution)
-        return TaskEnvironment(scenario, executor, reward, settings, bounds, seed)
+        return TaskEnvironment(scenario, executor, reward, settings, seed)
     embedded = load_embedded_settings(embedded_config)
     table = nominal_travel_table(scenario, embedded.travel)
     runner = EmbeddedExecutor(table, scenario.n_robots, embedded.profile(profile), settings.goal_timeout, seed,
                               embedded.collision_distance, embedded.collision_dt)
-    return TaskEnvironment(scenario, runner, reward, settings, table.map_bounds, seed)
+    return TaskEnvironment(scenario, runner, reward, settings, seed)

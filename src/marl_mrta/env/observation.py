@@ -26,13 +26,13 @@ from marl_mrta.model.scenario import Scenario
 
 
 class ObservationEncoder:
-    def __init__(self, scenario: Scenario, map_bounds: Tuple[float, float, float, float]):
+    def __init__(self, scenario: Scenario):
         self.n_robots = scenario.n_robots
         self.n_tasks = scenario.n_tasks
         self.timeout = scenario.episode_timeout
         self.t_max = scenario.nav_thresholds.t_max
         self.step_scale = 2.0 * scenario.n_tasks
-        self.x0, self.y0, self.width, self.height = map_bounds
+        self.x0, self.y0, self.width, self.height = scenario.map_bounds
         categories = scenario.categories
         n_cat = len(categories)
         none_task = [0.0] * scenario.n_tasks + [1.0]

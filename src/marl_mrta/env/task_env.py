@@ -24,7 +24,7 @@ class TaskEnvironment:
     """Implements env.api.TaskAllocationEnv for one scenario and one executor."""
 
     def __init__(self, scenario: Scenario, executor: Executor, reward: RewardConfig, settings: TaskSettings,
-                 map_bounds, seed: Optional[int] = None):
+                 seed: Optional[int] = None):
         self.scenario = scenario
         self.executor = executor
         self.reward = reward
@@ -32,7 +32,7 @@ class TaskEnvironment:
         self.n_agents = scenario.n_robots
         self.n_tasks = scenario.n_tasks
         self.n_actions = scenario.n_tasks + 1
-        self.encoder = ObservationEncoder(scenario, map_bounds)
+        self.encoder = ObservationEncoder(scenario)
         self.obs_dim = self.encoder.obs_dim
         self.state_dim = self.encoder.state_dim
         self._predecessors = [list(p) for p in scenario.predecessors]

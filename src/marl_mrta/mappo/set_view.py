@@ -35,7 +35,7 @@ class SetView:
         """turn_order: how the robots take turns when deciding in sequence (env/observation.py)."""
         table = scenario_travel_table(scenario)
         self.scenario = scenario
-        self.flat = ObservationEncoder(scenario, table.map_bounds)
+        self.flat = ObservationEncoder(scenario)
         self.encoder = SetObservationEncoder(self.flat, scenario, table.nominal_time, table.node_poses, turn_order)
         self.layout = SetLayout(scenario.n_robots, scenario.n_tasks)
 

@@ -70,6 +70,7 @@ class Scenario:
     predecessors: Tuple[Tuple[int, ...], ...]   # per task index: indices that must come first
     nav_thresholds: NavThresholds
     episode_timeout: float
+    map_bounds: Tuple[float, float, float, float]   # x, y of the map's lower-left corner, width, height (m)
     reward_overrides: Dict[str, Dict[str, float]] = field(default_factory=dict)
 
     @property
@@ -225,6 +226,8 @@ def load_scenario(path: Union[str, Path]) -> Scenario:
     overrides = _read_reward_overrides(reader, reader.single(root, "reward", required=False))
     return Scenario(name=name, source=path, map_path=map_path, robots=robots, tasks=tasks,
                     predecessors=predecessors, nav_thresholds=thresholds, episode_timeout=timeout,
+                    map_bounds=(grid_map.origin.x, grid_map.origin.y, grid_map.width * grid_map.resolution,
+                                grid_map.height * grid_map.resolution),
                     reward_overrides=overrides)
 
 

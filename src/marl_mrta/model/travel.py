@@ -19,13 +19,12 @@ from __future__ import annotations
 import math
 import os
 from dataclasses import astuple, dataclass
-from typing import Callable, Dict, List, Sequence, Tuple
+from typing import Dict, List, Sequence, Tuple
 
 import numpy as np
 
 from marl_mrta.common.config import ConfigError
 from marl_mrta.model.navfn_paths import PlanningError, plan_all_pairs
-from marl_mrta.model.occupancy_map import OccupancyMap
 from marl_mrta.model.scenario import Scenario, ScenarioError
 
 
@@ -51,13 +50,16 @@ class TravelTable:
     nominal_time: np.ndarray     # (n, n) s
     paths: List[List[np.ndarray]]   # paths[a][b]: (k, 2) polyline a -> b in the map frame
     model: TravelModel
-    map_bounds: Tuple[float, float, float, float]   # x, y of the map's lower-left corner, width, height (m)
 
     def __post_init__(self) -> None:
         # Plain lists: the executor reads single entries thousands of times per second.
         self.length_rows = self.length.tolist()
         self.turn_rows = self.turn_time.tolist()
         self.time_rows = self.nominal_time.tolist()
+        # Distance along each path at its points, for placing robots on it (the proximity check):
+        # navfn's paths have a point per cell, too many to measure again at every step.
+        self.path_along = [[np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(path, axis=0).T))])
+                            for path in row] for row in self.paths]
 
     @property
     def n_nodes(self) -> int:
@@ -77,8 +79,7 @@ def path_heading(points: np.ndarray, lookahead: float) -> float:
     return math.atan2(dy, dx)
 
 
-def build_travel_table(map_path: str, grid_map: OccupancyMap, poses: Sequence[Tuple[float, float, float]],
-                       model: TravelModel) -> TravelTable:
+def build_travel_table(map_path: str, poses: Sequence[Tuple[float, float, float]], model: TravelModel) -> TravelTable:
     """Navigation's plan between every pair of poses; PlanningError naming the pose it cannot plan."""
     navfn = plan_all_pairs(map_path, model.nav_config_dir, poses)
     n = len(poses)
@@ -106,23 +107,20 @@ def build_travel_table(map_path: str, grid_map: OccupancyMap, poses: Sequence[Tu
                 turn[a, b] = _angle_diff(yaw_b, yaw_a) / model.angular_speed
             paths[a][b] = points
     nominal = np.maximum(turn + length / model.linear_speed, model.min_goal_time)
-    res = grid_map.resolution
-    bounds = (grid_map.origin.x, grid_map.origin.y, grid_map.width * res, grid_map.height * res)
-    return TravelTable(list(poses), length, turn, nominal, paths, model, bounds)
+    return TravelTable(list(poses), length, turn, nominal, paths, model)
 
 
 _CACHE: Dict[tuple, TravelTable] = {}
 
 
-def cached_travel_table(map_path: str, load_grid_map: Callable[[], OccupancyMap],
-                        poses: Sequence[Tuple[float, float, float]], model: TravelModel) -> TravelTable:
+def cached_travel_table(map_path: str, poses: Sequence[Tuple[float, float, float]], model: TravelModel) -> TravelTable:
     """build_travel_table, computed once per (map file state, poses, model) in this process."""
     stat = os.stat(map_path)
     key = (os.path.realpath(map_path), stat.st_mtime_ns, stat.st_size,
            tuple(tuple(float(v) for v in pose) for pose in poses), astuple(model))
     table = _CACHE.get(key)
     if table is None:
-        table = build_travel_table(key[0], load_grid_map(), poses, model)
+        table = build_travel_table(key[0], poses, model)
         _CACHE[key] = table
     return table
 
@@ -146,7 +144,7 @@ def nominal_travel_table(scenario: Scenario, model: TravelModel) -> TravelTable:
     """The cached table of a scenario; ScenarioError naming the robot or task navigation cannot
     plan from or to, ConfigError for a bad navigation parameter file."""
     try:
-        return cached_travel_table(str(scenario.map_path), scenario.load_map, scenario_poses(scenario), model)
+        return cached_travel_table(str(scenario.map_path), scenario_poses(scenario), model)
     except PlanningError as error:
         if error.pose < 0:
             raise ConfigError(f"travel planning on {scenario.map_path}: {error}") from None
