@@ -26,7 +26,8 @@ def test_a_bad_part_is_one_line_and_exit_2(tmp_path, capsys):
 def test_part_mappo_fine_tunes_and_keeps_the_other_figures(tmp_path):
     kept_4x8 = dict(SOLVED_2X8, size="4x8", best_makespan=25.992, lower_bound=25.992)
     (tmp_path / "bench_scale.json").write_text(json.dumps({"headline": [], "sizes": [SOLVED_2X8, kept_4x8]}))
-    assert bench_scale_main(["--out", str(tmp_path), "--sizes", "2x8", "--parts", "mappo", "--mappo-seconds", "3"]) == 0
+    assert bench_scale_main(["--out", str(tmp_path), "--sizes", "2x8", "--parts", "mappo", "--mappo-seconds", "3",
+                             "--mappo-set", "teacher=reference"]) == 0
     document = json.loads((tmp_path / "bench_scale.json").read_text())
     by_size = {r["size"]: r for r in document["sizes"]}
     assert by_size["4x8"] == kept_4x8                          # a size not asked for: as it was
@@ -38,5 +39,8 @@ def test_part_mappo_fine_tunes_and_keeps_the_other_figures(tmp_path):
     assert mappo["time_to_within_5pct_s"] is not None and 0 < mappo["time_to_within_5pct_s"] <= mappo["fine_tuning_s"]
     assert mappo["fine_tuning_s"] >= 3.0 and mappo["updates"] >= 1
     figures = {row["figure"] for row in document["headline"]}
-    assert any(f.startswith("2x8 MAPPO (generalist + ") for f in figures)
+    assert any(f.startswith("2x8 MAPPO (generalist + ") and "teacher=reference" in f for f in figures)
+    # The setting is recorded with the figures and in the command that reproduces them.
+    assert mappo["settings"] == ["teacher=reference"] and mappo["command"].endswith("--set teacher=reference")
+    assert document["settings"]["mappo_settings"] == ["teacher=reference"]
     assert "4x8 ga / best known" in figures

@@ -17,7 +17,7 @@ from marl_mrta.mappo.set_networks import SetActor
 from marl_mrta.mappo.set_view import SetView
 from marl_mrta.mappo.training_env import embedded_factory, set_view_pool
 
-LAB_2R, LAB_4R = (package_root() / "scenarios" / f"{name}.xml" for name in ("lab_2r", "lab_4r"))
+LAB_2R, LAB_3R, LAB_4R = (package_root() / "scenarios" / f"{name}.xml" for name in ("lab_2r", "lab_3r", "lab_4r"))
 SET_IN_TURN = {"actor": "set", "append_agent_id": False, "hidden_size": 16, "set_heads": 2, "set_layers": 1,
                "action_mask": "finished", "decision_order": "sequential_logic"}
 
@@ -94,18 +94,43 @@ def test_self_imitation_needs_the_set_actor_and_an_embedded_scenario(tmp_path):
     assert runner.self_imitation is None and any("self_imitation_epochs: off" in line for line in lines)
 
 
-def test_the_ga_teacher_offers_its_schedule_and_its_time_counts(tmp_path):
-    """teacher: ga on lab_4r: the run's self-imitation holds the GA's schedule before any
-    training, and its planning time is training wall time."""
-    config = config_from_dict({**SET_IN_TURN, "self_imitation_epochs": 10, "teacher": "ga"})
-    make = embedded_factory(LAB_4R, config)
-    runner = Runner(config, make, evaluate=on_new_env(make), scenario=str(LAB_4R), seed=0, out_dir=tmp_path / "r",
-                    log=lambda line: None, tensorboard=False, plots=False, pool=set_view_pool(config, [LAB_4R], 0))
+def _teacher_run(tmp_path, scenario, **settings):
+    config = config_from_dict({**SET_IN_TURN, "self_imitation_epochs": 10, **settings})
+    make = embedded_factory(scenario, config)
+    runner = Runner(config, make, evaluate=on_new_env(make), scenario=str(scenario), seed=0, out_dir=tmp_path / "r",
+                    log=lambda line: None, tensorboard=False, plots=False, pool=set_view_pool(config, [scenario], 0))
     runner.start()
     lines = []
     offer_teacher_plan(runner, lines.append)
+    return runner, lines
+
+
+def test_the_ga_teacher_offers_its_schedule_and_its_time_counts(tmp_path):
+    """teacher: ga on lab_4r: the run's self-imitation holds the GA's schedule before any
+    training, and its planning time is training wall time."""
+    runner, lines = _teacher_run(tmp_path, LAB_4R, teacher="ga")
     assert runner.self_imitation.best_seed == 0 and runner.self_imitation.best_actions
     assert runner.self_imitation.best_source == "the ga teacher's schedule"   # named so in the log
     assert runner.wall_time > 0.0 and "teacher ga: a schedule of" in lines[0]
     assert runner.self_imitation.best_makespan == pytest.approx(float(lines[0].split("schedule of ")[1].split(" s")[0]),
                                                                 abs=0.01)
+
+
+def test_the_reference_teacher_offers_the_best_known_plan_the_in_turn_decision_can_take(tmp_path):
+    """teacher: reference offers evaluate's reference plan (lab_4r's proven optimum). On lab_3r
+    that plan sends a robot to a task whose predecessor a robot after it in the turn order takes:
+    sequential_logic with turns by the nearest ready task cannot produce it, so it is not offered
+    and the log says which step; decision_order sequential can, and it is offered."""
+    task = load_task_settings()
+    runner, lines = _teacher_run(tmp_path / "4r", LAB_4R, teacher="reference")
+    optimum, _ = scenario_reference(runner.replay_env()[0].scenario, task.min_step, goal_timeout=task.goal_timeout)
+    assert runner.self_imitation.best_source == "the reference teacher's schedule"
+    assert runner.self_imitation.best_makespan == pytest.approx(optimum.makespan)
+    assert runner.wall_time > 0.0 and "teacher reference: a schedule of" in lines[0]
+
+    runner, lines = _teacher_run(tmp_path / "3r", LAB_3R, teacher="reference", turn_order="nearest_ready")
+    assert runner.self_imitation.best_seed is None
+    assert "step 2 of its" in lines[0] and "nothing offered" in lines[0]
+    runner, lines = _teacher_run(tmp_path / "3r_sequential", LAB_3R, teacher="reference", turn_order="nearest_ready",
+                                 decision_order="sequential")
+    assert runner.self_imitation.best_seed == 0 and "a schedule of 37.10 s offered" in lines[0]

@@ -127,13 +127,15 @@ def generalist_training_seconds() -> Optional[float]:
         return None
 
 
-def mappo_figures(label: str, scenario: Path, best: float, lower: float, seconds: float, work: Path) -> Dict[str, Any]:
-    """Part `mappo`: the generalist fine-tuned on the scenario for `seconds` of training wall time."""
+def mappo_figures(label: str, scenario: Path, best: float, lower: float, seconds: float, work: Path,
+                  overrides: Sequence[str] = ()) -> Dict[str, Any]:
+    """Part `mappo`: the generalist fine-tuned on the scenario for `seconds` of training wall time,
+    with the preset's settings changed by `overrides` (KEY=VALUE, as train --set takes them)."""
     print(f"bench_scale: {label} ({scenario.name}): MAPPO, {seconds:g} s of fine-tuning ...", file=sys.stderr)
     out = work / f"mappo_{label}"
     argv = [sys.executable, str(package_root() / "scripts" / "train"), "--scenario", str(scenario), "--init",
             "generalist", "--set", f"max_wall_seconds={seconds:g}", "--set", "total_env_steps=100000000",
-            "--out", str(out)]
+            "--out", str(out)] + [word for setting in overrides for word in ("--set", setting)]
     process = subprocess.run(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     if process.returncode != 0:
         raise RuntimeError(f"train on {scenario.name} failed: {process.stderr.strip().splitlines()[-1:]}")
@@ -147,7 +149,9 @@ def mappo_figures(label: str, scenario: Path, best: float, lower: float, seconds
             "greedy_makespan": makespan, "greedy_at_s": best_eval["wall_time"],
             "ratio_to_best": makespan / best, "ratio_to_lower_bound": makespan / lower if lower > 0 else None,
             "time_to_within_5pct_s": within[0]["wall_time"] if within else None,
-            "command": f"train --scenario {scenario.name} --init generalist --set max_wall_seconds={seconds:g}"}
+            "settings": list(overrides),
+            "command": " ".join([f"train --scenario {scenario.name} --init generalist --set max_wall_seconds={seconds:g}"]
+                                + [f"--set {setting}" for setting in overrides])}
 
 
 def ros_figures(label: str, scenario: Path, work: Path) -> Dict[str, Any]:
@@ -165,7 +169,7 @@ def ros_figures(label: str, scenario: Path, work: Path) -> Dict[str, Any]:
 
 
 def bench_size(label: str, scenario: Path, work: Path, parts: Sequence[str], mappo_seconds: float,
-               previous: Optional[Dict[str, Any]], logs: Path) -> Dict[str, Any]:
+               previous: Optional[Dict[str, Any]], logs: Path, mappo_overrides: Sequence[str] = ()) -> Dict[str, Any]:
     """One size's figures: the parts asked for, the others as `previous` had them; the log of a
     failed ROS run is kept in `logs`."""
     result: Dict[str, Any] = dict(previous or {})
@@ -177,7 +181,7 @@ def bench_size(label: str, scenario: Path, work: Path, parts: Sequence[str], map
     if "mappo" in parts:
         try:
             result["mappo"] = mappo_figures(label, scenario, result["best_makespan"], result["lower_bound"],
-                                            mappo_seconds, work)
+                                            mappo_seconds, work, mappo_overrides)
         except RuntimeError as error:
             result["mappo"] = {"error": str(error)}
     if "ros" in parts:
@@ -228,8 +232,9 @@ def headline(results: Sequence[Dict[str, Any]]) -> List[Dict[str, Any]]:
         mappo = r.get("mappo")
         if mappo and "error" not in mappo:
             before = mappo["generalist_training_s"]
+            changed = "".join(f", {setting}" for setting in mappo.get("settings", []))
             rows.append({"figure": f"{r['size']} MAPPO (generalist + {mappo['fine_tuning_s']:.0f} s of fine-tuning"
-                                   f"{f', {before:.0f} s before' if before else ''}) / lower bound", "unit": "",
+                                   f"{f', {before:.0f} s before' if before else ''}{changed}) / lower bound", "unit": "",
                          "value": round(mappo["ratio_to_lower_bound"], 3), "goal": mappo_goals.get(r["size"], "")})
             to_5 = mappo["time_to_within_5pct_s"]
             rows.append({"figure": f"{r['size']} MAPPO fine-tuning to within 5 % of the best known",
@@ -254,6 +259,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                              "workspace); the others keep their figures from the existing file")
     parser.add_argument("--mappo-seconds", type=float, default=MAPPO_SECONDS,
                         help=f"fine-tuning wall time per size for part mappo (default {MAPPO_SECONDS:g})")
+    parser.add_argument("--mappo-set", action="append", default=[], metavar="KEY=VALUE",
+                        help="a fine-tuning setting for part mappo, passed to train --set (repeatable), e.g. "
+                             "teacher=reference")
     args = parser.parse_args(argv)
     parts = args.parts.split(",")
     unknown_parts = sorted(set(parts) - set(PARTS))
@@ -280,7 +288,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                 return 2
         else:
             wanted = [label for label, _ in chosen]
-        results = [bench_size(label, scenario, work, parts, args.mappo_seconds, previous.get(label), out)
+        results = [bench_size(label, scenario, work, parts, args.mappo_seconds, previous.get(label), out,
+                              args.mappo_set)
                    if label in wanted else previous[label]
                    for label, scenario in chosen if label in wanted or label in previous]
     rows = headline(results)
@@ -289,7 +298,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     tmp_path.write_text(json.dumps({"headline": rows, "sizes": results,
                                     "settings": {"cpsat_limits_per_model": CPSAT_LIMITS, "exact_limit": EXACT_LIMIT,
                                                  "cpsat_workers": load_baseline_settings().cpsat.workers,
-                                                 "mappo_seconds": args.mappo_seconds},
+                                                 "mappo_seconds": args.mappo_seconds,
+                                                 "mappo_settings": args.mappo_set},
                                     "cpu_count": os.cpu_count()}, indent=1))
     tmp_path.replace(path)
     width = max(len(r["figure"]) for r in rows)

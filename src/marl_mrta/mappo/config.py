@@ -25,7 +25,7 @@ DECISION_ORDERS = ("simultaneous", "sequential", "sequential_logic")
 #: robots and tasks as sets (mappo/set_networks.py), which acts on scenarios of any size.
 ACTORS = ("mlp", "set")
 #: Planners whose schedule a run may start its self-imitation with (evaluation/training.py).
-TEACHERS = ("none", "ga")
+TEACHERS = ("none", "ga", "reference")
 
 
 def preset_dir() -> Path:
@@ -102,8 +102,9 @@ class MappoConfig:
                                          "SelfImitation; actor: set, one embedded scenario; 0 = off)", low=0)
     self_imitation_lr: float = setting(1e-3, "Adam step size of that imitation", low=0.0, low_open=True)
     teacher: str = setting("none", "a fresh run first offers this planner's schedule to self-imitation, as if sampled: "
-                           "none | ga (the genetic algorithm of config/baselines.yaml; its time counts as training "
-                           "wall time)", choices=TEACHERS)
+                           "none | ga (the genetic algorithm of config/baselines.yaml) | reference (evaluate's best "
+                           "known plan: A* or CP-SAT under config/baselines.yaml's budgets); the planning time counts "
+                           "as training wall time", choices=TEACHERS)
     train_threads: int = setting(1, "torch CPU threads of each PPO update (collection and evaluation stay on one); "
                                  "a run repeats bit for bit for a given count, not across counts; 2 on two cores "
                                  "makes an update of site_8r or site_16r 1.4-1.6 x faster", low=1)
