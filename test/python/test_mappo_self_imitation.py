@@ -49,6 +49,9 @@ def test_the_best_offered_episode_is_taught_until_the_greedy_policy_takes_it():
     learner.offer(plan.makespan + 5.0, 0, as_sampled[::-1])   # longer: not kept
     learner.offer(plan.makespan - 5.0, None, as_sampled)      # no seed to replay it from: not kept
     assert learner.best_makespan == plan.makespan and learner.best_actions == as_sampled
+    planned = SelfImitation(epochs=1, learning_rate=5e-3, decision_order="sequential_logic")
+    assert planned.offer_plan(env, SetView(env.scenario), plan.joint_actions, "a plan") is None   # takeable: offered
+    assert planned.best_actions == as_sampled and planned.best_makespan == pytest.approx(plan.makespan)
     assert learner.teach(actor, env, SetView(env.scenario), below=plan.makespan, seed=0) is None
     taught = learner.teach(actor, env, SetView(env.scenario), below=before, seed=0)
     assert taught is not None and taught["accuracy"] == 1.0

@@ -12,11 +12,12 @@ import pytest
 
 from marl_mrta.common.config import ConfigError
 from marl_mrta.common.paths import default_config_path, package_root
+from marl_mrta.env.embedded import EmbeddedExecutor
 from marl_mrta.env.factory import scenario_travel_table
 from marl_mrta.env.settings import load_embedded_settings
 from marl_mrta.model.navfn_paths import LIBRARY_NAME, plan_all_pairs
 from marl_mrta.model.scenario import load_scenario
-from marl_mrta.model.travel import nominal_travel_table, path_heading, scenario_poses
+from marl_mrta.model.travel import build_travel_table, nominal_travel_table, path_heading, scenario_poses
 
 LAB_2R = package_root() / "scenarios" / "lab_2r.xml"
 
@@ -56,7 +57,6 @@ def test_a_navigation_directory_without_the_costmap_file_is_one_line(tmp_path):
     assert "costmap_common_params_burger.yaml: cannot be read" in text
 
 
-
 def test_along_each_path_ends_at_its_length():
     # The proximity check places robots by distance along their paths (env/embedded.py).
     table = scenario_travel_table(load_scenario(LAB_2R))
@@ -65,6 +65,20 @@ def test_along_each_path_ends_at_its_length():
             along = table.path_along[a][b]
             assert len(along) == len(table.paths[a][b]) and along[0] == 0.0
             assert np.all(np.diff(along) >= 0.0) and along[-1] == pytest.approx(table.length[a, b])
+
+
+def test_the_distances_along_the_paths_are_measured_only_for_the_proximity_check():
+    scenario = load_scenario(LAB_2R)
+    settings = load_embedded_settings()
+    table = build_travel_table(str(scenario.map_path), scenario_poses(scenario), settings.travel)   # not cached
+    goals = list(range(scenario.n_robots))
+    EmbeddedExecutor(table, scenario.n_robots, settings.profile("ideal"), 100.0).start_step(goals, 100.0)
+    assert "path_along" not in vars(table)
+    noisy = settings.profile("measured_tb3")
+    assert noisy.proximity_collisions
+    EmbeddedExecutor(table, scenario.n_robots, noisy, 100.0, seed=0,
+                     collision_distance=settings.collision_distance).start_step(goals, 100.0)
+    assert "path_along" in vars(table)
 
 
 def _plan_in_a_shell(environment):

@@ -4,19 +4,15 @@ episode loop: on an environment of the run's factory, or in the run's own pool o
 from __future__ import annotations
 
 import time
-from typing import Callable, List, Optional, Sequence
-
-import numpy as np
+from typing import Callable, List, Sequence
 
 from marl_mrta.baselines.ga import solve_ga
-from marl_mrta.baselines.plan import NominalRun, SchedulingInstance
 from marl_mrta.baselines.reference import scheduling_instance, solve_reference
 from marl_mrta.baselines.settings import load_baseline_settings
 from marl_mrta.env.api import StepOutput, TaskAllocationEnv
 from marl_mrta.env.settings import load_task_settings
 from marl_mrta.evaluation.loop import run_episode
 from marl_mrta.evaluation.policies import LearnedPolicy
-from marl_mrta.mappo.claims import in_turn_filter, is_sequential
 from marl_mrta.mappo.env_pool import EnvPool, EpisodeSummary, EpisodeTally
 from marl_mrta.mappo.policy import ActorPolicy
 from marl_mrta.mappo.runner import GreedyEvaluation, Runner
@@ -54,23 +50,6 @@ def in_pool(pool: EnvPool) -> GreedyEvaluation:
     return evaluate
 
 
-def first_step_outside(instance: SchedulingInstance, joint_actions: Sequence[Sequence[Optional[int]]],
-                       decision_order: str, turn_order: str) -> Optional[int]:
-    """The first step of a plan that the in-turn decision cannot produce, or None: a robot heading
-    for a finished task (the `finished` mask) or, under sequential_logic, for a task whose
-    predecessor no robot before it in the turn order claimed."""
-    if not is_sequential(decision_order):
-        return None
-    allowed = in_turn_filter(instance, decision_order, turn_order)
-    run = NominalRun(instance)
-    for step, goals in enumerate(joint_actions):
-        actions = np.array([[instance.n_tasks if g is None else g for g in goals]])
-        if not allowed(actions, np.array(run.finished, dtype=bool), np.array(run.positions))[0]:
-            return step
-        run.apply(goals)
-    return None
-
-
 def offer_teacher_plan(runner: Runner, log: Callable[[str], None] = print) -> None:
     """A fresh run's teacher (config teacher) plans the run's scenario, and its self-imitation
     gets the plan as if it had sampled it (mappo/imitation.py, SelfImitation)."""
@@ -89,12 +68,11 @@ def offer_teacher_plan(runner: Runner, log: Callable[[str], None] = print) -> No
     if not (plan.complete and plan.logic_violations == 0):
         log(f"teacher {runner.config.teacher}: no complete schedule in {seconds:.1f} s; nothing offered")
         return
-    outside = first_step_outside(instance, plan.joint_actions, runner.config.decision_order, runner.config.turn_order)
+    outside = runner.offer_plan(plan.joint_actions)
     if outside is not None:
         log(f"teacher {runner.config.teacher}: step {outside + 1} of its {plan.makespan:.2f} s schedule is not one "
             f"the in-turn decision ({runner.config.decision_order}, turn order {runner.config.turn_order}) can take; "
             "nothing offered (decision_order sequential leaves out fewer plans: docs/mappo.md)")
         return
-    runner.offer_plan(plan.makespan, plan.joint_actions)
     log(f"teacher {runner.config.teacher}: a schedule of {plan.makespan:.2f} s offered to self-imitation "
         f"({seconds:.1f} s)")

@@ -173,7 +173,7 @@ class SelfImitation:
     that episode until the greedy choice takes every one of its actions gets there at once. The
     episode is replayed from its seed and actions (Demonstration), so the rows are the ones the
     actor saw, and its replayed makespan is what counts. A planner's schedule may be offered too
-    (config teacher); it is taught only if the in-turn decision can take every one of its actions."""
+    (config teacher, offer_plan); only if the in-turn decision can take every one of its actions."""
 
     def __init__(self, epochs: int, learning_rate: float, decision_order: str):
         self.epochs = epochs
@@ -192,6 +192,18 @@ class SelfImitation:
             self.best_makespan, self.best_seed, self.best_actions = makespan, seed, [list(j) for j in joint_actions]
             self.best_source = source
 
+    def offer_plan(self, env: TaskAllocationEnv, view: SetView, joint_actions: Sequence[Sequence[Optional[int]]],
+                   source: str) -> Optional[int]:
+        """A planner's schedule, replayed as an episode of seed 0: offered when the in-turn decision
+        can take every one of its actions; else the first step it cannot take, and nothing offered."""
+        demo = demonstrate(env, view, joint_actions, self.decision_order, seed=0)
+        outside = np.flatnonzero(~demo.allowed.all(axis=1))
+        if outside.size:
+            return int(outside[0])
+        none = env.n_actions - 1
+        self.offer(demo.makespan, 0, [[none if a is None else int(a) for a in joint] for joint in joint_actions], source)
+        return None
+
     def teach(self, actor: SetActor, env: TaskAllocationEnv, view: SetView, below: float,
               seed: int) -> Optional[Dict[str, object]]:
         """Imitate the best episode when it is shorter than `below` (the best greedy makespan so
@@ -206,9 +218,6 @@ class SelfImitation:
         none = env.n_actions - 1
         joints = [[None if a == none else a for a in joint] for joint in self.best_actions]
         demo = demonstrate(env, view, joints, self.decision_order, seed=self.best_seed)
-        if not demo.allowed.all():   # a plan the in-turn decision cannot take (offered, not sampled)
-            self.best_makespan, self.best_seed, self.best_actions = float("inf"), None, []
-            return None
         if not demo.makespan < below - 1e-9:   # not replayed as sampled (noise): nothing gained
             self.best_makespan = demo.makespan
             return None

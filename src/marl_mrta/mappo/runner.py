@@ -478,14 +478,14 @@ class Runner:
         self.history["updates"].append(metrics)
         return metrics
 
-    def offer_plan(self, makespan: float, joint_actions: Sequence[Sequence[Optional[int]]]) -> None:
+    def offer_plan(self, joint_actions: Sequence[Sequence[Optional[int]]]) -> Optional[int]:
         """A planner's schedule for self-imitation (config teacher; evaluation/training.py), offered
-        as an episode of seed 0."""
+        as an episode of seed 0 when the in-turn decision can take each of its actions. Returns the
+        first step it cannot take (nothing offered), else None."""
         if self.self_imitation is None:   # off in this run (logged at the start)
-            return
-        none = self.pool.n_actions - 1
-        self.self_imitation.offer(makespan, 0, [[none if a is None else int(a) for a in joint] for joint in joint_actions],
-                                  source=f"the {self.config.teacher} teacher's schedule")
+            return None
+        return self.self_imitation.offer_plan(*self.replay_env(), joint_actions,
+                                              source=f"the {self.config.teacher} teacher's schedule")
 
     def _imitate_best(self, finished: Sequence[EpisodeSummary]) -> None:
         """Self-imitation (config.self_imitation_epochs): the best sampled episode so far, taught

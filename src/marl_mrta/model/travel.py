@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 import os
 from dataclasses import astuple, dataclass
+from functools import cached_property
 from typing import Dict, List, Sequence, Tuple
 
 import numpy as np
@@ -56,10 +57,14 @@ class TravelTable:
         self.length_rows = self.length.tolist()
         self.turn_rows = self.turn_time.tolist()
         self.time_rows = self.nominal_time.tolist()
-        # Distance along each path at its points, for placing robots on it (the proximity check):
-        # navfn's paths have a point per cell, too many to measure again at every step.
-        self.path_along = [[np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(path, axis=0).T))])
-                            for path in row] for row in self.paths]
+
+    @cached_property
+    def path_along(self) -> List[List[np.ndarray]]:
+        """Distance along each path at its points, for placing robots on it (the proximity check):
+        navfn's paths have a point per cell, too many to measure again at every step; measured on
+        first use, so tables of runs without the check never are."""
+        return [[np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(path, axis=0).T))]) for path in row]
+                for row in self.paths]
 
     @property
     def n_nodes(self) -> int:
