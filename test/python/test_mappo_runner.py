@@ -1,6 +1,7 @@
 """The MAPPO runner on the real embedded environment (lab_2r): checkpoint → resume gives a
 bit-identical next update; a killed `train` resumes from its checkpoint; the standalone actor
 acts; bad input to `train` is one line."""
+import dataclasses
 import math
 import os
 import signal
@@ -34,6 +35,32 @@ def _runner(tmp_path, **overrides):
     make_env = embedded_factory(SCENARIO, config)
     return Runner(config, make_env, evaluate=on_new_env(make_env), scenario=SCENARIO, seed=7,
                   out_dir=tmp_path / "run", log=lambda line: None, tensorboard=False, plots=False)
+
+
+def test_a_greedy_schedule_out_of_order_is_no_policy_found_and_the_summary_says_so(tmp_path):
+    """time_to_target counts only complete, logic-consistent greedy schedules, and the run's last
+    line says when the saved actor's schedule is out of order. The double `out_of_order` reports
+    the real greedy episodes with a task finished before its predecessor."""
+    config = config_from_dict({**TINY, "eval_every": 5, "total_env_steps": 120})   # one evaluation, complete
+    make_env = embedded_factory(SCENARIO, config)
+    real = on_new_env(make_env)
+
+    def out_of_order(actor, seeds):
+        return [dataclasses.replace(record, logic_consistent=False) for record in real(actor, seeds)]
+
+    results = {}
+    for name, evaluate in (("real", real), ("out_of_order", out_of_order)):
+        runner = Runner(config, make_env, evaluate=evaluate, scenario=SCENARIO, seed=7, out_dir=tmp_path / name,
+                        log=lambda line: None, tensorboard=False, plots=False, target_makespan=1000.0)
+        runner.start()
+        results[name] = runner.run()
+    assert results["real"].time_to_target is not None and results["real"].greedy_consistent
+    assert "NOT logic-consistent" not in results["real"].greedy_result()
+    assert results["out_of_order"].time_to_target is None and not results["out_of_order"].greedy_consistent
+    assert results["out_of_order"].greedy_makespan == results["real"].greedy_makespan   # the same episodes
+    assert "NOT logic-consistent" in results["out_of_order"].greedy_result()
+    unfinished = dataclasses.replace(results["real"], greedy_makespan=math.inf, greedy_consistent=False)
+    assert "did NOT finish every task" in unfinished.greedy_result()
 
 
 def _flat_state(runner):

@@ -174,6 +174,6 @@ def main(argv: Optional[List[str]] = None, log: Callable[[str], None] = print) -
         print(f"train: {error.filename or ''}: {error.strerror}", file=sys.stderr)
         return 2
     log(f"train: {summary.updates} updates, {summary.env_steps} steps, {summary.episodes} episodes in "
-        f"{summary.wall_time:.1f} s; greedy makespan {summary.greedy_makespan:.2f} s; "
+        f"{summary.wall_time:.1f} s; {summary.greedy_result()}; "
         f"actor {runner.actor_path}")
     return 0

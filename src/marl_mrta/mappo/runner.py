@@ -100,6 +100,19 @@ class RunSummary:
     steps_to_target: Optional[int]
     stopped_early: bool
     last_metrics: Dict[str, float] = field(default_factory=dict)
+    greedy_consistent: bool = True        # the last greedy evaluation finished every task in order
+    kept_makespan: Optional[float] = None  # keep_best: the saved actor's (best) consistent makespan, s
+
+    def greedy_result(self) -> str:
+        """What the saved actor's greedy schedule does, for the run's last line."""
+        if self.kept_makespan is not None:
+            return f"greedy makespan {self.kept_makespan:.2f} s (the best logic-consistent evaluation, kept)"
+        if not math.isfinite(self.greedy_makespan):
+            return "the last greedy evaluation did NOT finish every task"
+        text = f"greedy makespan {self.greedy_makespan:.2f} s"
+        if not self.greedy_consistent:
+            text += ", NOT logic-consistent (a task finished before one of its predecessors)"
+        return text
 
 
 @dataclass
@@ -122,8 +135,8 @@ class Runner:
                  stop_at_target: bool = False, tensorboard: bool = True, plots: bool = True,
                  pool: Optional[EnvPool] = None, init_actor: Optional[str] = None):
         """evaluate: runs the greedy policy's episodes (evaluation/training.py: on an environment
-        of make_env, or in the pool); target_makespan: greedy makespan counted as "policy found"
-        (time_to_target); stop_at_target ends the run there (benchmarks); pool: the environments
+        of make_env, or in the pool); target_makespan: a complete, logic-consistent greedy makespan
+        at most this counts as "policy found" (time_to_target); stop_at_target ends the run there (benchmarks); pool: the environments
         (default config.n_envs from make_env); make_env None: the evaluation ran in the pool,
         whose training episodes then restart (module doc); init_actor: a set actor's file whose
         weights the run starts from (fine-tuning), "" for new weights;
@@ -541,7 +554,7 @@ class Runner:
             self.best_makespan = consistent
             self.best_actor = {k: v.detach().clone() for k, v in self.trainer.actor.state_dict().items()}
         if (self.target_makespan is not None and self.time_to_target is None
-                and result["makespan"] <= self.target_makespan):
+                and consistent <= self.target_makespan):   # a schedule out of order is no policy found
             self.time_to_target, self.steps_to_target = self.wall_time, self.env_steps
         return result
 
@@ -637,11 +650,14 @@ class Runner:
         if not abandoned:
             self.save_checkpoint()
         self.finish()
-        last_eval = self.history["evaluations"][-1]["makespan"] if self.history["evaluations"] else float("nan")
+        last = self.history["evaluations"][-1] if self.history["evaluations"] else None
+        kept = self.best_makespan if c.keep_best and self.best_actor is not None else None
         return RunSummary(updates=self.update, env_steps=self.env_steps, episodes=self.episodes,
-                          wall_time=self.wall_time, greedy_makespan=last_eval, time_to_target=self.time_to_target,
-                          steps_to_target=self.steps_to_target, stopped_early=self.update < c.n_updates,
-                          last_metrics=metrics)
+                          wall_time=self.wall_time, greedy_makespan=last["makespan"] if last else float("nan"),
+                          time_to_target=self.time_to_target, steps_to_target=self.steps_to_target,
+                          stopped_early=self.update < c.n_updates, last_metrics=metrics,
+                          greedy_consistent=last is None or math.isfinite(last["consistent_makespan"]),
+                          kept_makespan=kept)
 
     @property
     def out_of_time(self) -> bool:
