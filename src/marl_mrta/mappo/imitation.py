@@ -201,7 +201,8 @@ class SelfImitation:
         if outside.size:
             return int(outside[0])
         none = env.n_actions - 1
-        self.offer(demo.makespan, 0, [[none if a is None else int(a) for a in joint] for joint in joint_actions], source)
+        as_sampled = [[none if a is None else int(a) for a in joint] for joint in joint_actions]
+        self.offer(demo.makespan, 0, as_sampled, source)
         return None
 
     def teach(self, actor: SetActor, env: TaskAllocationEnv, view: SetView, below: float,

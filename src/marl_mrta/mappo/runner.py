@@ -136,11 +136,11 @@ class Runner:
                  pool: Optional[EnvPool] = None, init_actor: Optional[str] = None):
         """evaluate: runs the greedy policy's episodes (evaluation/training.py: on an environment
         of make_env, or in the pool); target_makespan: a complete, logic-consistent greedy makespan
-        at most this counts as "policy found" (time_to_target); stop_at_target ends the run there (benchmarks); pool: the environments
-        (default config.n_envs from make_env); make_env None: the evaluation ran in the pool,
-        whose training episodes then restart (module doc); init_actor: a set actor's file whose
-        weights the run starts from (fine-tuning), "" for new weights;
-        default: the settings' init_actor."""
+        at most this counts as "policy found" (time_to_target); stop_at_target ends the run there
+        (benchmarks); pool: the environments (default config.n_envs from make_env); make_env
+        None: the evaluation ran in the pool, whose training episodes then restart (module doc);
+        init_actor: a set actor's file whose weights the run starts from (fine-tuning), "" for
+        new weights; default: the settings' init_actor."""
         self.config = config
         self.make_env = make_env
         self.run_greedy = evaluate
