@@ -200,9 +200,7 @@ class SelfImitation:
         outside = np.flatnonzero(~demo.allowed.all(axis=1))
         if outside.size:
             return int(outside[0])
-        none = env.n_actions - 1
-        as_sampled = [[none if a is None else int(a) for a in joint] for joint in joint_actions]
-        self.offer(demo.makespan, 0, as_sampled, source)
+        self.offer(demo.makespan, 0, demo.actions.tolist(), source)   # as sampled: None is the last action
         return None
 
     def teach(self, actor: SetActor, env: TaskAllocationEnv, view: SetView, below: float,
