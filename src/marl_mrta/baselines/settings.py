@@ -20,7 +20,8 @@ class GaSettings:
     elite: int = 2
     crossover_rate: float = 0.9
     mutation_rate: float = 0.4
-    max_evaluations: int = 20000   # decoded chromosomes, evolution and the final hill-climb together
+    max_evaluations: int = 20000   # decoded chromosomes, evolution and the final search together
+    kick_mutations: int = 3        # random mutations per kick of the final iterated local search
 
 
 @dataclass(frozen=True)
@@ -46,7 +47,7 @@ class BaselineSettings:
 
 #: The GA's whole-number settings and the least value each may take (its rates lie in [0, 1]).
 GA_COUNTS = (("population", 4), ("generations", 1), ("stall_generations", 1), ("tournament", 1), ("elite", 0),
-             ("max_evaluations", 1))
+             ("max_evaluations", 1), ("kick_mutations", 1))
 
 
 def load_baseline_settings(path: Optional[Union[str, Path]] = None) -> BaselineSettings:
