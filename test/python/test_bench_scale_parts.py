@@ -1,6 +1,6 @@
 """bench_scale's parts: a run of some parts on some sizes keeps every other figure of the file
-already there, fills the MAPPO figures from a real fine-tuning run, and refuses a bad option with
-one line."""
+already there (and the settings its kept MAPPO figures were run with), fills the MAPPO figures
+from a real fine-tuning run, and refuses a bad option with one line."""
 import json
 
 from marl_mrta.apps.bench_scale import main as bench_scale_main
@@ -44,3 +44,16 @@ def test_part_mappo_fine_tunes_and_keeps_the_other_figures(tmp_path):
     assert mappo["settings"] == ["teacher=reference"] and mappo["command"].endswith("--set teacher=reference")
     assert document["settings"]["mappo_settings"] == ["teacher=reference"]
     assert "4x8 ga / best known" in figures
+
+
+def test_part_solvers_keeps_the_settings_the_kept_mappo_figures_were_run_with(tmp_path):
+    mappo_run = {"mappo_seconds": 300.0, "mappo_settings": ["teacher=reference"]}
+    (tmp_path / "bench_scale.json").write_text(json.dumps({"headline": [], "sizes": [SOLVED_2X8],
+                                                           "settings": mappo_run}))
+    assert bench_scale_main(["--out", str(tmp_path), "--sizes", "2x8", "--parts", "solvers"]) == 0
+    document = json.loads((tmp_path / "bench_scale.json").read_text())
+    assert document["settings"]["mappo_seconds"] == 300.0
+    assert document["settings"]["mappo_settings"] == ["teacher=reference"]
+    solved = document["sizes"][0]
+    assert solved["methods"]["ga"]["ratio_to_best"] == 1.0 and solved["best_makespan"] < 48.05   # solved again
+    assert solved["methods"]["random"] != SOLVED_2X8["methods"]["random"]

@@ -272,9 +272,14 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     out = Path(args.out)
     path = out / "bench_scale.json"
     previous: Dict[str, Dict[str, Any]] = {}
+    mappo_run = {"mappo_seconds": args.mappo_seconds, "mappo_settings": args.mappo_set}
     if path.is_file():
         try:
-            previous = {r["size"]: r for r in json.loads(path.read_text())["sizes"]}
+            document = json.loads(path.read_text())
+            previous = {r["size"]: r for r in document["sizes"]}
+            if "mappo" not in parts:   # the kept MAPPO figures keep the settings they were run with
+                kept = document.get("settings", {})
+                mappo_run = {key: kept.get(key, value) for key, value in mappo_run.items()}
         except (ValueError, KeyError, TypeError):
             print(f"bench_scale: {path}: not a bench_scale result; every part is run", file=sys.stderr)
     with tempfile.TemporaryDirectory(prefix="bench_scale_") as tmp:
@@ -298,8 +303,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     tmp_path.write_text(json.dumps({"headline": rows, "sizes": results,
                                     "settings": {"cpsat_limits_per_model": CPSAT_LIMITS, "exact_limit": EXACT_LIMIT,
                                                  "cpsat_workers": load_baseline_settings().cpsat.workers,
-                                                 "mappo_seconds": args.mappo_seconds,
-                                                 "mappo_settings": args.mappo_set},
+                                                 **mappo_run},
                                     "cpu_count": os.cpu_count()}, indent=1))
     tmp_path.replace(path)
     width = max(len(r["figure"]) for r in rows)
