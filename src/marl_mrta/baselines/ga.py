@@ -7,8 +7,7 @@ order and complete). Tournament selection, order crossover (OX), swap/inversion/
 mutations, elitism, and a final iterated local search from the best chromosome (hill-climbs over
 single task moves and swaps, restarted from random kicks of the best), all within
 `max_evaluations` decoded chromosomes (a count, not a time, so the plan does not depend on the
-machine). The search breaks makespan ties by the sum of the tasks' finish times. Seeded: the same
-seed gives the same plan.
+machine). Seeded: the same seed gives the same plan.
 """
 from __future__ import annotations
 
@@ -105,22 +104,18 @@ def _neighbours(chrom: Chromosome):
 def solve_ga(instance: SchedulingInstance, settings: GaSettings = GaSettings(), seed: int = 0) -> Plan:
     rng = random.Random(seed)
     n_tasks, n_robots = instance.n_tasks, instance.n_robots
-    cache: Dict[Chromosome, Tuple[float, float]] = {}
+    cache: Dict[Chromosome, float] = {}
 
-    def score(chrom: Chromosome) -> Tuple[float, float]:
+    def fitness(chrom: Chromosome) -> float:
         value = cache.get(chrom)
         if value is None:
             run = decode_task_lists(instance, split(*chrom))
-            value = (run.elapsed, run.finish_time_sum) if run.complete else (math.inf, math.inf)
+            value = run.elapsed if run.complete else math.inf
             cache[chrom] = value
         return value
 
-    def fitness(chrom: Chromosome) -> float:
-        return score(chrom)[0]
-
     def better(a: Chromosome, b: Chromosome) -> bool:
-        (span_a, sum_a), (span_b, sum_b) = score(a), score(b)
-        return span_a < span_b - 1e-9 or (span_a < span_b + 1e-9 and sum_a < sum_b - 1e-9)
+        return fitness(a) < fitness(b) - 1e-9
 
     def spent() -> bool:
         return len(cache) >= settings.max_evaluations

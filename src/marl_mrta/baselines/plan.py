@@ -115,7 +115,6 @@ class NominalRun:
         # s, the least time between a predecessor's finish and its successor's arrival in one step
         # (inf when no step finishes both): how late a leg may run before the plan loses its order
         self.thinnest_margin = math.inf
-        self.finish_time_sum = 0.0   # s, every finished task's finish time: a tie-break between equal makespans
 
     def preview(self, goals: Sequence[Optional[int]]) -> StepResolution:
         inst = self.instance
@@ -137,7 +136,6 @@ class NominalRun:
                 if pred in finish_at:
                     self.thinnest_margin = min(self.thinnest_margin, done.reach_time - finish_at[pred])
         for done in resolution.finished:
-            self.finish_time_sum += self.elapsed + done.finish_time
             self.finished[done.task] = True
             self.robot_tasks[done.robot].append(done.task)
             if not resolution.correct_order[done.robot]:
