@@ -19,13 +19,17 @@ def default_config_path(name: str) -> Path:
 
 
 def resolve_resource(reference: str, relative_to: Path) -> Path:
-    """A file reference of a scenario: package://<pkg>/<path>, absolute, or relative to `relative_to`."""
+    """A file reference of a scenario: package://<pkg>/<path>, absolute, or relative to `relative_to`.
+    ValueError when ROS knows no package <pkg>."""
     prefix = "package://"
     if reference.startswith(prefix):
         package, _, rest = reference[len(prefix):].partition("/")
         if package == "marl_mrta":
             return package_root() / rest
         import rospkg  # other packages: only ROS knows where they are
-        return Path(rospkg.RosPack().get_path(package)) / rest
+        try:
+            return Path(rospkg.RosPack().get_path(package)) / rest
+        except rospkg.ResourceNotFound:
+            raise ValueError(f"{reference}: ROS knows no package '{package}'") from None
     path = Path(reference)
     return path if path.is_absolute() else relative_to / path

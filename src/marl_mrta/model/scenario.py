@@ -72,6 +72,9 @@ class Scenario:
     episode_timeout: float
     map_bounds: Tuple[float, float, float, float]   # x, y of the map's lower-left corner, width, height (m)
     reward_overrides: Dict[str, Dict[str, float]] = field(default_factory=dict)
+    # The robots' navigation parameter files (the directory robot_nav.launch loads them from), when
+    # the scenario names one (<robots navigation="...">); None: the package's config/nav.
+    navigation_dir: Optional[Path] = None
 
     @property
     def n_robots(self) -> int:
@@ -116,6 +119,13 @@ class _Reader:
         for name in required:
             if name not in element.attrib:
                 raise self.fail(element, f"missing attribute '{name}'")
+
+    def resource(self, element: ET.Element, name: str) -> Path:
+        """A file or directory the attribute names (package://, absolute, or relative to the scenario)."""
+        try:
+            return resolve_resource(self.text(element, name), self.path.parent)
+        except ValueError as error:
+            raise self.fail(element, f"{name}: {error}") from None
 
     def text(self, element: ET.Element, name: str) -> str:
         value = element.attrib[name].strip()
@@ -192,7 +202,7 @@ def load_scenario(path: Union[str, Path]) -> Scenario:
 
     map_element = reader.single(root, "map")
     reader.attributes(map_element, ("file",))
-    map_path = resolve_resource(reader.text(map_element, "file"), path.parent)
+    map_path = reader.resource(map_element, "file")
     try:
         grid_map = load_map(map_path)
     except MapFileError as error:
@@ -200,6 +210,12 @@ def load_scenario(path: Union[str, Path]) -> Scenario:
 
     spacing = footprint_spacing()
     robots_element = reader.single(root, "robots")
+    reader.attributes(robots_element, (), ("navigation",))
+    navigation_dir = None
+    if "navigation" in robots_element.attrib:
+        navigation_dir = reader.resource(robots_element, "navigation")
+        if not navigation_dir.is_dir():
+            raise reader.fail(robots_element, f"navigation: {navigation_dir} is not a directory")
     robots = _read_robots(reader, robots_element, grid_map)
     _check_apart(reader, robots_element, [r.start for r in robots], spacing, "robot", "start pose",
                  "overlaps the footprint of robot", [r.id for r in robots])
@@ -228,7 +244,7 @@ def load_scenario(path: Union[str, Path]) -> Scenario:
                     predecessors=predecessors, nav_thresholds=thresholds, episode_timeout=timeout,
                     map_bounds=(grid_map.origin.x, grid_map.origin.y, grid_map.width * grid_map.resolution,
                                 grid_map.height * grid_map.resolution),
-                    reward_overrides=overrides)
+                    reward_overrides=overrides, navigation_dir=navigation_dir)
 
 
 def _read_posed(reader: _Reader, parent: ET.Element, tag: str, attributes: Sequence[str],

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import astuple, dataclass
+from dataclasses import astuple, dataclass, replace
 from functools import cached_property
 from typing import Dict, List, Sequence, Tuple
 
@@ -146,13 +146,17 @@ def scenario_poses(scenario: Scenario) -> List[Tuple[float, float, float]]:
 
 
 def nominal_travel_table(scenario: Scenario, model: TravelModel) -> TravelTable:
-    """The cached table of a scenario; ScenarioError naming the robot or task navigation cannot
-    plan from or to, ConfigError for a bad navigation parameter file."""
+    """The cached table of a scenario, planned with its robots' navigation files when it names
+    them (<robots navigation>); ScenarioError naming the robot or task navigation cannot plan
+    from or to, ConfigError for a bad navigation parameter file."""
+    if scenario.navigation_dir is not None:
+        model = replace(model, nav_config_dir=str(scenario.navigation_dir.resolve()))
     try:
         return cached_travel_table(str(scenario.map_path), scenario_poses(scenario), model)
     except PlanningError as error:
         if error.pose < 0:
-            raise ConfigError(f"travel planning on {scenario.map_path}: {error}") from None
+            raise ConfigError(f"travel planning on {scenario.map_path} with the navigation files of "
+                              f"{model.nav_config_dir}: {error}") from None
         if error.pose < scenario.n_robots:
             robot = scenario.robots[error.pose]
             element, what, (x, y) = f"<robot id=\"{robot.id}\">", "start pose", (robot.start.x, robot.start.y)
