@@ -18,6 +18,7 @@
 struct MarlMrtaTravel {
   int n = 0;
   std::vector<std::vector<double>> xy;  // [a * n + b]
+  double max_speed = 0.0;               // [m/s] the fastest DWA drives: min(max_vel_x, max_vel_trans)
 };
 
 namespace marl_mrta {
@@ -75,7 +76,8 @@ void checkPoses(const CostGrid& costs, const std::vector<Pose2D>& poses, const s
 std::unique_ptr<MarlMrtaTravel> planAllPairs(const std::string& map_yaml, const std::string& config_dir,
                                               const std::vector<Pose2D>& poses) {
   // move_base's own objects, as its node builds them; the global costmap has no observations.
-  MoveBaseCore core(readMoveBaseConfig(ParamNode(loadMoveBaseParams(config_dir), "move_base")));
+  const MoveBaseConfig config = readMoveBaseConfig(ParamNode(loadMoveBaseParams(config_dir), "move_base"));
+  MoveBaseCore core(config);
   const map::OccupancyMap occupancy = asPublished(map::loadMap(map_yaml));
   for (StaticLayer* layer : core.globalCostmap().layersOfType<StaticLayer>()) layer->setMap(occupancy);
   core.globalCostmap().updateMap(Pose2D{});
@@ -85,6 +87,7 @@ std::unique_ptr<MarlMrtaTravel> planAllPairs(const std::string& map_yaml, const 
   const int n = static_cast<int>(poses.size());
   auto travel = std::make_unique<MarlMrtaTravel>();
   travel->n = n;
+  travel->max_speed = std::min(config.dwa.limits.max_vel_x, config.dwa.limits.max_vel_trans);
   travel->xy.resize(static_cast<size_t>(n) * n);
   std::vector<int> failures(n, 0);
   std::vector<std::string> first_failure(n);
@@ -168,6 +171,8 @@ MarlMrtaTravel* marl_mrta_travel_plan(const char* map_yaml, const char* nav_conf
   }
   return nullptr;
 }
+
+double marl_mrta_travel_max_speed(const MarlMrtaTravel* travel) { return travel ? travel->max_speed : 0.0; }
 
 int marl_mrta_travel_path_size(const MarlMrtaTravel* travel, int a, int b) {
   const std::vector<double>* xy = marl_mrta::nav::pathOf(travel, a, b);

@@ -1,6 +1,7 @@
 """A scenario may name its robots' navigation parameter files (<robots navigation="DIR">), for a
 lab whose Burgers run navigation tuned to its floor: the embedded travel times are planned with
-those files, and the launch files load the same directory into every robot's move_base and amcl.
+those files (at most at the speed their local planner drives), and the launch files load the same
+directory into every robot's move_base and amcl.
 A directory that is not there, a package ROS does not know, or a directory without the files is
 one line, as is a map in a package ROS does not know."""
 import shutil
@@ -57,6 +58,19 @@ def test_the_embedded_travel_times_are_planned_with_the_scenarios_navigation_fil
     # An environment of that scenario steps with those times.
     env = make_env(own, seed=0)
     assert np.array_equal(env.executor.table.nominal_time, own_table.nominal_time)
+
+
+def test_robots_drive_no_faster_than_the_scenarios_local_planner(tmp_path, tight_nav):
+    dwa = tight_nav / "dwa_local_planner_params_burger.yaml"
+    text = dwa.read_text()
+    assert "max_vel_x: 0.22" in text
+    dwa.write_text(text.replace("max_vel_x: 0.22", "max_vel_x: 0.15"))
+    table = scenario_travel_table(load_scenario(scenario_with_navigation(tmp_path, "nav_tight")))
+    assert table.model.linear_speed == 0.15
+    np.testing.assert_allclose(table.nominal_time, np.maximum(table.turn_time + table.length / 0.15,
+                                                              table.model.min_goal_time))
+    env = make_env(load_scenario(scenario_with_navigation(tmp_path, "nav_tight")), seed=0)
+    assert env.executor.table.model.linear_speed == 0.15   # the embedded executor drives with it too
 
 
 def test_launch_files_take_the_navigation_directory_from_the_scenario(tmp_path, tight_nav):

@@ -26,7 +26,8 @@ def test_the_tables_paths_are_navfns_own_from_the_robots_pose_to_the_goal():
     scenario = load_scenario(LAB_2R)
     table = scenario_travel_table(scenario)
     poses = scenario_poses(scenario)
-    navfn = plan_all_pairs(str(scenario.map_path), str(default_config_path("nav")), poses)
+    navfn, planner_speed = plan_all_pairs(str(scenario.map_path), str(default_config_path("nav")), poses)
+    assert planner_speed == table.model.linear_speed == 0.22   # TurtleBot3's DWA drives at the Burger's top speed
     for a in range(len(poses)):
         for b in range(len(poses)):
             if a == b:
@@ -89,7 +90,7 @@ def _plan_in_a_shell(environment):
               "from marl_mrta.model.scenario import load_scenario\n"
               "from marl_mrta.model.travel import scenario_poses\n"
               f"s = load_scenario({str(LAB_2R)!r})\n"
-              "paths = plan_all_pairs(str(s.map_path), str(default_config_path('nav')), scenario_poses(s))\n"
+              "paths = plan_all_pairs(str(s.map_path), str(default_config_path('nav')), scenario_poses(s)).paths\n"
               "print(len(paths[0][1]))\n")
     return subprocess.run([sys.executable, "-c", script], env=environment, capture_output=True, text=True,
                           timeout=120)

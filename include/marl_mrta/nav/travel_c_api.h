@@ -23,6 +23,9 @@ typedef struct MarlMrtaTravel MarlMrtaTravel;
 MarlMrtaTravel* marl_mrta_travel_plan(const char* map_yaml, const char* nav_config_dir, int n, const double* poses,
                                       char* error, int error_size, int* failed_node);
 
+/* The fastest the navigation's local planner drives [m/s]: DWA's min(max_vel_x, max_vel_trans). */
+double marl_mrta_travel_max_speed(const MarlMrtaTravel* travel);
+
 /* Points of the path from pose a to pose b (a != b): navfn's path, from the corner of a's cell
  * to b's position. 0 for indices out of range or a == b. */
 int marl_mrta_travel_path_size(const MarlMrtaTravel* travel, int a, int b);

@@ -11,7 +11,7 @@ from __future__ import annotations
 import ctypes
 import os
 from pathlib import Path
-from typing import List, Optional, Sequence, Tuple
+from typing import List, NamedTuple, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -32,6 +32,11 @@ class PlanningError(ValueError):
 class LibraryMissing(ConfigError):
     """The package's C++ library is not built or not on the library path (an installation
     problem, reported in one line as a configuration error is)."""
+
+
+class NavfnPlans(NamedTuple):
+    paths: List[List[Optional[np.ndarray]]]   # paths[a][b]: (k, 2) x, y [m] (None for a == b)
+    max_speed: float                          # m/s, the fastest the local planner drives (DWA)
 
 
 _library: Optional[ctypes.CDLL] = None
@@ -66,6 +71,8 @@ def _load() -> ctypes.CDLL:
     library.marl_mrta_travel_path.restype = None
     library.marl_mrta_travel_path.argtypes = [ctypes.c_void_p, ctypes.c_int, ctypes.c_int,
                                               ctypes.POINTER(ctypes.c_double)]
+    library.marl_mrta_travel_max_speed.restype = ctypes.c_double
+    library.marl_mrta_travel_max_speed.argtypes = [ctypes.c_void_p]
     library.marl_mrta_travel_free.restype = None
     library.marl_mrta_travel_free.argtypes = [ctypes.c_void_p]
     _library = library
@@ -73,10 +80,11 @@ def _load() -> ctypes.CDLL:
 
 
 def plan_all_pairs(map_yaml: str, nav_config_dir: str,
-                   poses: Sequence[Tuple[float, float, float]]) -> List[List[Optional[np.ndarray]]]:
+                   poses: Sequence[Tuple[float, float, float]]) -> NavfnPlans:
     """paths[a][b]: navfn's path a -> b as (k, 2) x, y [m] in the map frame (None for a == b),
-    from the corner of a's cell, where navfn places its points, to b. PlanningError when a pose
-    cannot be planned from or to, or the map or a parameter file is bad."""
+    from the corner of a's cell, where navfn places its points, to b; with the local planner's
+    top speed from the same files. PlanningError when a pose cannot be planned from or to, or
+    the map or a parameter file is bad."""
     library = _load()
     n = len(poses)
     flat = (ctypes.c_double * (3 * n))(*[float(v) for pose in poses for v in pose])
@@ -96,6 +104,6 @@ def plan_all_pairs(map_yaml: str, nav_config_dir: str,
                 buffer = (ctypes.c_double * (2 * size))()
                 library.marl_mrta_travel_path(handle, a, b, buffer)
                 paths[a][b] = np.frombuffer(buffer, dtype=np.float64).reshape(size, 2).copy()
-        return paths
+        return NavfnPlans(paths, library.marl_mrta_travel_max_speed(handle))
     finally:
         library.marl_mrta_travel_free(handle)

@@ -4,7 +4,8 @@
    the scenario's map file and the navigation's parameter files (config/nav/), by the C++ core
    that move_base runs (model/navfn_paths.py).
 2. time = initial turn / ω + length / v + final turn / ω (turning in place, as DWA does when
-   the heading is far off), v the Burger's top speed (config/robot_burger.yaml), ω the turning
+   the heading is far off), v the Burger's top speed (config/robot_burger.yaml) or, where the
+   navigation's files set DWA's max_vel_x (or max_vel_trans) lower, that speed, ω the turning
    speed the navigation achieves (config/task_embedded.yaml), at least `min_goal_time` (a goal at
    the robot's pose still costs a control cycle). The turns are to and from the path's direction
    over its first and last `heading_lookahead` metres: the direction DWA turns to before it drives;
@@ -35,7 +36,8 @@ class TravelModel:
     (env/settings.py: the robot file, the navigation's directory, config/task_embedded.yaml)."""
 
     nav_config_dir: str                  # the navigation's parameter files (config/nav)
-    linear_speed: float                  # m/s, the robot's top speed (config/robot_burger.yaml)
+    linear_speed: float                  # m/s, the robot's top speed (config/robot_burger.yaml); in a
+                                         # table, at most the local planner's (the navigation files)
     angular_speed: float                 # rad/s, effective turning in place (config/task_embedded.yaml)
     min_goal_time: float                 # s (config/task_embedded.yaml)
     heading_lookahead: float             # m of path over which a turn's heading is taken (the same file)
@@ -86,7 +88,10 @@ def path_heading(points: np.ndarray, lookahead: float) -> float:
 
 def build_travel_table(map_path: str, poses: Sequence[Tuple[float, float, float]], model: TravelModel) -> TravelTable:
     """Navigation's plan between every pair of poses; PlanningError naming the pose it cannot plan."""
-    navfn = plan_all_pairs(map_path, model.nav_config_dir, poses)
+    navfn, planner_speed = plan_all_pairs(map_path, model.nav_config_dir, poses)
+    # Robots drive no faster than their local planner lets them (DWA's max_vel_x, which a lab
+    # may set below the robot's top speed).
+    model = replace(model, linear_speed=min(model.linear_speed, planner_speed))
     n = len(poses)
     length = np.zeros((n, n))
     turn = np.zeros((n, n))
