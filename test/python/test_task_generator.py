@@ -5,6 +5,7 @@ method (random, GA, auction, the reference's plan) completes every episode throu
 embedded environment, the plans logic-consistently and as long as planned."""
 import math
 import os
+import shutil
 import subprocess
 import sys
 from dataclasses import replace
@@ -92,6 +93,27 @@ def test_command_line_writes_the_scenarios(tmp_path):
     bad = subprocess.run([sys.executable, script, str(tmp_path / "bad"), "--robots", "40"], capture_output=True,
                          text=True, env=env, timeout=120)
     assert bad.returncode == 2 and bad.stderr.strip() == "generate_scenarios: robots: 40 is not in 2..16"
+    no_nav = subprocess.run([sys.executable, script, str(tmp_path / "bad"), "--navigation", str(tmp_path / "none")],
+                            capture_output=True, text=True, env=env, timeout=120)
+    assert no_nav.returncode == 2
+    assert no_nav.stderr.strip() == f"generate_scenarios: --navigation: {tmp_path / 'none'} is not a directory"
+
+
+def test_a_requests_navigation_files_go_into_the_scenario_and_time_its_legs(tmp_path, travel_model):
+    """The same draw with a lab's slower navigation files: the same poses, the files named in
+    <robots navigation>, and the timeout and r_nav thresholds from the slower legs."""
+    slow = tmp_path / "nav_slow"
+    shutil.copytree(ROOT / "config" / "nav", slow)
+    dwa = slow / "dwa_local_planner_params_burger.yaml"
+    dwa.write_text(dwa.read_text().replace("max_vel_x: 0.22", "max_vel_x: 0.11"))
+    request = ScenarioRequest(n_robots=3, n_tasks=6, layout="pillars", name="nav")
+    plain = generate_scenario(request, 7, tmp_path / "plain", travel_model)
+    own = generate_scenario(replace(request, navigation=str(slow)), 7, tmp_path / "own", travel_model)
+    assert plain.navigation_dir is None and own.navigation_dir == slow
+    assert [r.start for r in own.robots] == [r.start for r in plain.robots]
+    assert [t.goal for t in own.tasks] == [t.goal for t in plain.tasks]
+    assert own.nav_thresholds.t_avg > 1.5 * plain.nav_thresholds.t_avg
+    assert own.episode_timeout > plain.episode_timeout
 
 
 @pytest.fixture(scope="module")

@@ -37,6 +37,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     parser.add_argument("--max-leg", type=float, default=None,
                         help="s: redraw poses until no nominal leg is longer (default: config/task.yaml's goal timeout)")
     parser.add_argument("--name", default="gen", help="file name prefix (default gen)")
+    parser.add_argument("--navigation", type=Path, default=None,
+                        help="directory of the robots' navigation parameter files, written to each scenario's "
+                             "<robots navigation> (default: the package's config/nav)")
     args = parser.parse_args(argv)
     fixed = {k: v for k, v in (("n_robots", args.robots), ("n_tasks", args.tasks), ("layout", args.layout),
                                 ("dag", args.dag), ("stages", args.stages)) if v is not None}
@@ -47,7 +50,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             raise GeneratorError(f"--count: must be at least 1, got {args.count}")
         model = load_embedded_settings().travel
         max_leg = args.max_leg if args.max_leg is not None else load_task_settings().goal_timeout
-        base = replace(ScenarioRequest(), max_leg=max_leg, name=args.name, **fixed)
+        if args.navigation is not None and not args.navigation.is_dir():
+            raise GeneratorError(f"--navigation: {args.navigation} is not a directory")
+        navigation = str(args.navigation.resolve()) if args.navigation is not None else None
+        base = replace(ScenarioRequest(), max_leg=max_leg, name=args.name, navigation=navigation, **fixed)
         scenarios = generate_scenarios(args.count, args.seed, args.out_dir, base, model, keep=tuple(fixed))
     except (GeneratorError, ScenarioError, ConfigError) as error:
         print(f"generate_scenarios: {error}", file=sys.stderr)
