@@ -3,8 +3,9 @@ move_base against stock move_base, one robot at rtf 1 in the simulator, on the l
 legs) and on the pillars map (two drawn legs between the columns). The built-in move_base must
 reach every goal stock reaches, each leg within MAX_RATIO_GOAL x stock's sim time (the
 oscillation the harness was built to find takes several times as long). Single drives at rtf 1
-vary by up to 30 %, so a map with a leg above the limit is driven again the benchmark's way
-(three drives per leg and stack, a leg's time their median) and judged on that. The doors map's pocket
+vary by up to 30 % (and a stack's single drive may fail under load), so a map with a leg above
+the limit or not driven by both stacks is driven again the benchmark's way (three drives per leg
+and stack, a leg's time their median) and judged on that. The doors map's pocket
 exit is checked in lock-step, without stock, by test_nav_doors_pocket.py. Skips in one line
 where the stock stack is not built (make stock-nav)."""
 import argparse
@@ -31,7 +32,10 @@ def test_builtin_reaches_every_goal_stock_reaches_in_comparable_time(tmp_path):
     for map_report in report["navigation"]:
         name = map_report["map"]
         comparison = map_report["comparison"]   # present only when both stacks drove every leg
-        if max((r for r in comparison["ratios"] if r is not None), default=0.0) > MAX_RATIO_GOAL:
+        # A single drive of either stack may fail or run long under load: such a map is driven
+        # again the benchmark's way before it is judged.
+        if None in comparison["ratios"] or max((r for r in comparison["ratios"] if r is not None),
+                                               default=0.0) > MAX_RATIO_GOAL:
             confirmed, errors = bench.compare_navigation([name], bench.map_files(), args.legs, CONFIRM_REPEATS,
                                                          args.seed, args.rtf, args.goal_timeout, str(tmp_path))
             assert errors == []
