@@ -136,3 +136,16 @@ def test_evaluate_command_reports_one_line_and_exit_2(name, tmp_path):
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith(f"evaluate: {FIXTURES / name}.xml: ")
     assert not (tmp_path / "out.json").exists()
+
+
+def test_a_scenario_without_nav_time_is_told_how_to_get_one_and_travel_table_suggests_it(capsys):
+    """The error names the command that suggests the thresholds, and that command reads the file."""
+    from marl_mrta.apps.travel_table import main as travel_table_main
+    path = FIXTURES / "missing_nav_time.xml"
+    with pytest.raises(ScenarioError) as error:
+        load_scenario(path)
+    assert str(error.value).endswith(f"`rosrun marl_mrta travel_table {path}` suggests them)")
+    assert load_scenario(path, nav_time_required=False).nav_thresholds is None
+    assert travel_table_main([str(path)]) == 0
+    last = capsys.readouterr().out.strip().splitlines()[-1]
+    assert last.startswith('suggested <nav_time t_min="') and last.endswith("(scenario has none)")

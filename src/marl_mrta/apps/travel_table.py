@@ -16,7 +16,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     parser.add_argument("scenario", help="scenario XML file")
     args = parser.parse_args(argv)
     try:
-        scenario = load_scenario(args.scenario)
+        scenario = load_scenario(args.scenario, nav_time_required=False)
         table = scenario_travel_table(scenario)
     except (ScenarioError, ConfigError) as error:
         print(f"travel_table: {error}", file=sys.stderr)
@@ -27,7 +27,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     for a, name in enumerate(names):
         print(f"{name:>6}" + "".join(f"{table.nominal_time[a, b]:7.1f}" for b in range(len(names))))
     t_min, t_avg, t_max = suggest_nav_thresholds(table, scenario.n_robots)
+    given = scenario.nav_thresholds
     print(f'suggested <nav_time t_min="{t_min}" t_avg="{t_avg}" t_max="{t_max}"/> '
-          f'(scenario has {scenario.nav_thresholds.t_min:g} / {scenario.nav_thresholds.t_avg:g} / '
-          f'{scenario.nav_thresholds.t_max:g})')
+          + (f'(scenario has {given.t_min:g} / {given.t_avg:g} / {given.t_max:g})' if given else "(scenario has none)"))
     return 0

@@ -68,12 +68,13 @@ class Scenario:
     robots: Tuple[RobotSpec, ...]
     tasks: Tuple[TaskSpec, ...]
     predecessors: Tuple[Tuple[int, ...], ...]   # per task index: indices that must come first
-    nav_thresholds: NavThresholds
+    nav_thresholds: Optional[NavThresholds]   # None only from load_scenario(nav_time_required=False)
     episode_timeout: float
     map_bounds: Tuple[float, float, float, float]   # x, y of the map's lower-left corner, width, height (m)
     reward_overrides: Dict[str, Dict[str, float]] = field(default_factory=dict)
     # The robots' navigation parameter files (the directory robot_nav.launch loads them from), when
-    # the scenario names one (<robots navigation="...">); None: the package's config/nav.
+    # the scenario names one (<robots navigation="...">), as an absolute path; None: the package's
+    # config/nav.
     navigation_dir: Optional[Path] = None
 
     @property
@@ -182,8 +183,9 @@ def _describe(element: ET.Element) -> str:
     return f"<{element.tag} id=\"{key}\">" if key is not None else f"<{element.tag}>"
 
 
-def load_scenario(path: Union[str, Path]) -> Scenario:
-    """Read and validate a scenario file."""
+def load_scenario(path: Union[str, Path], nav_time_required: bool = True) -> Scenario:
+    """Read and validate a scenario file. nav_time_required=False: a file without <nav_time> loads
+    with nav_thresholds None (travel_table, which suggests them, reads such a file)."""
     path = Path(path)
     reader = _Reader(path)
     try:
@@ -213,7 +215,7 @@ def load_scenario(path: Union[str, Path]) -> Scenario:
     reader.attributes(robots_element, (), ("navigation",))
     navigation_dir = None
     if "navigation" in robots_element.attrib:
-        navigation_dir = reader.resource(robots_element, "navigation")
+        navigation_dir = reader.resource(robots_element, "navigation").resolve()
         if not navigation_dir.is_dir():
             raise reader.fail(robots_element, f"navigation: {navigation_dir} is not a directory")
     robots = _read_robots(reader, robots_element, grid_map)
@@ -232,12 +234,7 @@ def load_scenario(path: Union[str, Path]) -> Scenario:
         raise reader.fail(episode, f"timeout must be positive, got {timeout:g}")
     _check_chains_fit(reader, tasks_element, tasks, predecessors, timeout)
 
-    nav_element = reader.single(root, "nav_time")
-    reader.attributes(nav_element, ("t_min", "t_avg", "t_max"))
-    thresholds = NavThresholds(reader.number(nav_element, "t_min"), reader.number(nav_element, "t_avg"),
-                               reader.number(nav_element, "t_max"))
-    if not 0.0 <= thresholds.t_min < thresholds.t_max or thresholds.t_avg <= 0.0:
-        raise reader.fail(nav_element, "need 0 <= t_min < t_max and t_avg > 0")
+    thresholds = _read_nav_thresholds(reader, root, nav_time_required)
 
     overrides = _read_reward_overrides(reader, reader.single(root, "reward", required=False))
     return Scenario(name=name, source=path, map_path=map_path, robots=robots, tasks=tasks,
@@ -276,6 +273,21 @@ def _check_apart(reader: _Reader, parent: ET.Element, poses: Sequence[Pose2D], n
             if apart < need:
                 raise reader.fail(elements[j], f"{what} ({poses[j].x:g}, {poses[j].y:g}) {problem} {ids[i]} "
                                                f"({apart:.3g} m apart, at least {need:.3g} m needed)")
+
+
+def _read_nav_thresholds(reader: _Reader, root: ET.Element, required: bool) -> Optional[NavThresholds]:
+    nav_element = reader.single(root, "nav_time", required=False)
+    if nav_element is None:
+        if required:
+            raise reader.fail(root, "missing element <nav_time> (the r_nav thresholds t_min, t_avg, t_max; "
+                                    f"`rosrun marl_mrta travel_table {reader.path}` suggests them)")
+        return None
+    reader.attributes(nav_element, ("t_min", "t_avg", "t_max"))
+    thresholds = NavThresholds(reader.number(nav_element, "t_min"), reader.number(nav_element, "t_avg"),
+                               reader.number(nav_element, "t_max"))
+    if not 0.0 <= thresholds.t_min < thresholds.t_max or thresholds.t_avg <= 0.0:
+        raise reader.fail(nav_element, "need 0 <= t_min < t_max and t_avg > 0")
+    return thresholds
 
 
 def _check_chains_fit(reader: _Reader, parent: ET.Element, tasks: Sequence["TaskSpec"],

@@ -155,7 +155,7 @@ def nominal_travel_table(scenario: Scenario, model: TravelModel) -> TravelTable:
     them (<robots navigation>); ScenarioError naming the robot or task navigation cannot plan
     from or to, ConfigError for a bad navigation parameter file."""
     if scenario.navigation_dir is not None:
-        model = replace(model, nav_config_dir=str(scenario.navigation_dir.resolve()))
+        model = replace(model, nav_config_dir=str(scenario.navigation_dir))
     try:
         return cached_travel_table(str(scenario.map_path), scenario_poses(scenario), model)
     except PlanningError as error:

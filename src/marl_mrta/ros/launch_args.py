@@ -32,7 +32,7 @@ def scenario_value(path: str, key: str) -> Union[int, str]:
     if key == "start_poses":
         return pose_list([(r.start.x, r.start.y, r.start.yaw) for r in scenario.robots])
     if key == "navigation":
-        return str(scenario.navigation_dir.resolve()) if scenario.navigation_dir else default_navigation
+        return str(scenario.navigation_dir) if scenario.navigation_dir else default_navigation
     raise KeyError(f"scenario_value: unknown key {key!r} (robots, map, start_poses, navigation)")
 
 
