@@ -18,10 +18,9 @@ echo "== 2/3 MAPPO training (embedded executor, preset tuned)"
 rm -rf "$out/train"
 rosrun marl_mrta train --scenario "$scenario" --preset tuned --seed 0 --out "$out/train"
 
-echo "== 3/3 evaluation: random, GA, auction, exact, then the learned policy (with the masks it was trained with)"
+echo "== 3/3 evaluation: random, GA, auction, exact, then the learned policy (under the mask it was trained with)"
 rosrun marl_mrta evaluate --method random,ga,auction,exact --scenario "$scenario" --episodes 20 --seed 0 \
   --quiet --out "$out/evaluate_baselines.json"
-mask=$(python3 -c "from marl_mrta.mappo.policy import load_policy; print(load_policy('$out/train/actor.pt').action_mask)")
-rosrun marl_mrta evaluate --method policy --policy "$out/train/actor.pt" --mask "$mask" --scenario "$scenario" \
+rosrun marl_mrta evaluate --method policy --policy "$out/train/actor.pt" --scenario "$scenario" \
   --episodes 20 --seed 0 --quiet --out "$out/evaluate_policy.json"
 echo "demo: results in $out"

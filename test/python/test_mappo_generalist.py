@@ -68,6 +68,24 @@ def test_evaluate_and_train_take_the_name(tmp_path, capsys):
     assert "generalists: no such file" in capsys.readouterr().err
 
 
+def test_evaluate_acts_under_the_mask_the_actor_was_trained_with(tmp_path, capsys):
+    """Without --mask the generalist acts under its training mask (finished) and completes lab_3r;
+    under config/task.yaml's none it would stall (each robot one task, then None until the
+    timeout), so asking for another mask is a one-line error."""
+    out = tmp_path / "e.json"
+    assert evaluate_main(["--method", "policy", "--policy", "generalist", "--scenario", str(SCENARIOS / "lab_3r.xml"),
+                          "--episodes", "1", "--no-exact", "--quiet", "--out", str(out)]) == 0
+    document = json.loads(out.read_text())
+    assert document["mask"] == "finished"
+    assert document["results"][0]["summary"]["complete_pct"] == 100.0
+    assert evaluate_main(["--method", "policy", "--policy", "generalist", "--mask", "none", "--episodes", "1",
+                          "--no-exact", "--quiet", "--out", str(tmp_path / "none.json")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[-1] == ("evaluate: mask: none differs from the mask the actor generalist was trained with (finished); "
+                       "give mask finished (other methods under none in a run of their own)")
+    assert not (tmp_path / "none.json").exists()
+
+
 def test_fine_tuning_the_generalist_reaches_the_optimum_on_lab_2r(tmp_path, capsys):
     """train --init generalist (the finetune preset, here 10 s of wall time): a new run from the
     shipped weights whose kept actor schedules lab_2r at its proven optimum."""

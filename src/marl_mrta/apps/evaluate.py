@@ -59,7 +59,8 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> argparse.Namespace:
                         help="--executor ros: the task manager node (default /rl_task_allocation_manager)")
     parser.add_argument("--profile", default=None,
                         help="embedded noise profile of config/task_embedded.yaml (default: its `profile`)")
-    parser.add_argument("--mask", default=None, choices=MASK_MODES, help="action masks (default: config/task.yaml)")
+    parser.add_argument("--mask", default=None, choices=MASK_MODES, help="action masks (default: for --method policy the mask the actor was trained with, "
+                        "else config/task.yaml)")
     parser.add_argument("--policy", default=None,
                         help="actor file for --method policy (an MLP actor: its scenario; a set actor: any scenario)")
     parser.add_argument("--seed", type=int, default=0, help="seed of episodes and planners (default 0)")
@@ -108,6 +109,8 @@ def make_ros_env(args: argparse.Namespace):
                          f"({env.scenario_path})")
     if args.mask and args.mask != env.settings.mask:
         raise UsageError(f"--mask: {args.mask} differs from the task manager's mask ({env.settings.mask})")
+    if "policy" in args.methods:
+        LearnedPolicy.trained_mask(args.policy, env.settings.mask)
     return env
 
 
@@ -164,6 +167,8 @@ def evaluate(args: argparse.Namespace) -> int:
     if args.executor == "ros":
         env = make_ros_env(args)
     else:
+        if "policy" in args.methods:
+            args.mask = LearnedPolicy.trained_mask(args.policy, args.mask)
         env = make_env(args.scenario or DEFAULT_SCENARIO, args.executor, profile=args.profile, mask=args.mask,
                        seed=args.seed)
     scenario = env.scenario

@@ -75,6 +75,20 @@ class LearnedPolicy:
         self.deterministic = deterministic
         self._hidden = None
 
+    @staticmethod
+    def trained_mask(path: str, asked: Optional[str]) -> str:
+        """The action-mask mode to act under: the one the actor file was trained with. Another
+        mask would feed the actor inputs it never saw (the generalist, trained with finished,
+        completes nothing under none), so asking for another is an error, as in ROS."""
+        try:
+            trained = load_policy(path).action_mask
+        except (PolicyFileError, ScenarioError) as error:
+            raise PolicyLoadError(str(error)) from None
+        if asked is not None and asked != trained:
+            raise PolicyLoadError(f"mask: {asked} differs from the mask the actor {path} was trained with ({trained}); "
+                                  f"give mask {trained} (other methods under {asked} in a run of their own)")
+        return trained
+
     @classmethod
     def from_file(cls, path: str, n_agents: int, obs_dim: int, n_actions: int, seed: int = 0,
                   deterministic: bool = True, scenario: Optional[Scenario] = None) -> "LearnedPolicy":
