@@ -27,7 +27,11 @@ class PgmParser {
     image.height = static_cast<int>(headerNumber("height", 1, 1 << 20));
     const long maxval = headerNumber("maxval", 1, 65535);
     const size_t count = static_cast<size_t>(image.width) * image.height;
-    if (count > (size_t{1} << 28)) throw MapError(path_, "header", "image too large");
+    if (count > kMaxMapCells) {
+      throw MapError(path_, "header", std::to_string(image.width) + " x " + std::to_string(image.height) + " = " +
+                                          std::to_string(count) + " cells, more than the " +
+                                          std::to_string(kMaxMapCells) + " a map may have (a 250 m square at 0.05 m)");
+    }
     image.pixels.resize(count);
 
     if (binary) {

@@ -1,6 +1,7 @@
 """The Python map_server reader: semantics (negate, thresholds, modes, origin, row order),
 world <-> cell conversion at the borders, bad input, and the lab and TurtleBot3 maps."""
 import math
+import re
 import sys
 from pathlib import Path
 
@@ -11,7 +12,7 @@ REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO / "src"))  # runnable without a sourced catkin workspace
 
 from marl_mrta.model.occupancy_map import (  # noqa: E402
-    FREE, OCCUPIED, UNKNOWN, GridCell, MapFileError, MapOrigin, OccupancyMap, load_map,
+    FREE, MAX_MAP_CELLS, OCCUPIED, UNKNOWN, GridCell, MapFileError, MapOrigin, OccupancyMap, load_map,
     read_pgm, save_map)
 
 TB3_MAP = REPO.parent / "shared" / "external" / "turtlebot3_noetic" / "turtlebot3_navigation" \
@@ -178,3 +179,16 @@ def test_turtlebot3_map_has_the_centre_pillar_at_the_origin():
     assert tb3.value_at(0.0, -0.2) == FREE and tb3.value_at(0.55, 0.0) == FREE
     # Unexplored space outside the arena.
     assert tb3.value_at(-9.0, -9.0) == UNKNOWN
+
+
+def test_an_image_of_too_many_cells_is_refused_from_its_header():
+    """A map past MAX_MAP_CELLS (often a resolution typed too fine) is one line before its pixels
+    are read; the fixture's header promises 30 M cells and holds three bytes. The C++ reader keeps
+    the same limit."""
+    path = REPO / "test" / "data" / "maps" / "bad_too_large.yaml"
+    with pytest.raises(MapFileError) as error:
+        load_map(path)
+    assert str(error.value) == (f"{path.parent / 'too_large.pgm'}: PGM header: 6000 x 5000 = 30000000 cells, "
+                                "more than the 25000000 a map may have (a 250 m square at 0.05 m)")
+    header = (REPO / "include" / "marl_mrta" / "map" / "occupancy_map.h").read_text()
+    assert re.search(r"constexpr size_t kMaxMapCells = (\d+);", header).group(1) == str(MAX_MAP_CELLS)

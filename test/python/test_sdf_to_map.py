@@ -225,6 +225,11 @@ def test_bad_command_line_gives_one_line(tmp_path):
     result = run_script(LAB_SDF, tmp_path / "out.yaml", "--resolution", "-0.05")
     assert result.returncode == 1
     assert result.stderr.strip().endswith("resolution: must be positive, got -0.05")
+    result = run_script(LAB_SDF, tmp_path / "out.yaml", "--resolution", "0.001")   # more cells than a map may have
+    assert result.returncode == 1
+    assert result.stderr.strip() == (f"{LAB_SDF}: resolution: 0.001 m gives 8300 x 6300 cells, more than the "
+                                     "25000000 a map may have")
+    assert not (tmp_path / "out.yaml").exists()
 
 
 def test_core_raises_sdf_error_for_an_sdf_without_geometry(tmp_path):

@@ -6,6 +6,7 @@
 // nav_msgs/OccupancyGrid: 100 occupied, 0 free, -1 unknown (scale mode: 1..99 in between).
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <stdexcept>
 #include <string>
@@ -27,6 +28,12 @@ class MapError : public std::runtime_error {
 };
 
 enum class MapMode { kTrinary, kScale, kRaw };
+
+// The most cells a map may have: a 250 m square at 0.05 m. Every robot's move_base holds costmaps
+// and planner arrays of the map's size (about 17 bytes a cell), so 16 robots need some 7 GB at this
+// size; a larger image (often a resolution typed too fine) is refused before its pixels are read.
+// model/occupancy_map.py's MAX_MAP_CELLS is the same number (a test compares them).
+constexpr size_t kMaxMapCells = 25000000;
 
 struct OccupancyMap {
   static constexpr int8_t kFree = 0;

@@ -47,6 +47,11 @@ DEFAULT_OCCUPIED_THRESH = 0.65
 DEFAULT_FREE_THRESH = 0.196
 
 MAP_MODES = ("trinary", "scale", "raw")
+#: The most cells a map may have: a 250 m square at 0.05 m. Every robot's move_base holds costmaps
+#: and planner arrays of the map's size (about 17 bytes a cell), so 16 robots need some 7 GB at
+#: this size; a larger image (often a resolution typed too fine) is refused before it is read.
+#: include/marl_mrta/map/occupancy_map.h's kMaxMapCells is the same number (a test compares them).
+MAX_MAP_CELLS = 25_000_000
 _REQUIRED_KEYS = ("image", "resolution", "origin", "negate", "occupied_thresh", "free_thresh")
 
 PathLike = Union[str, Path]
@@ -197,11 +202,17 @@ def read_pgm(path: PathLike) -> np.ndarray:
     """Read a binary (P5) or plain (P2) 8-bit PGM; returns uint8 (rows, cols), row 0 = top."""
     path = Path(path)
     try:
-        data = path.read_bytes()
+        with path.open("rb") as image:
+            head = image.read(_HEADER_BYTES)
+            tokens, _ = _pgm_header(path, head)
+            magic, width, height, maxval = tokens
+            if width * height > MAX_MAP_CELLS:
+                raise MapFileError(f"{path}: PGM header: {width} x {height} = {width * height} cells, more than "
+                                   f"the {MAX_MAP_CELLS} a map may have (a 250 m square at 0.05 m)")
+            data = head + image.read()
     except OSError as err:
         raise MapFileError(f"{path}: image: cannot read ({err.strerror})") from None
     tokens, offset = _pgm_header(path, data)
-    magic, width, height, maxval = tokens
     if maxval != 255:
         raise MapFileError(f"{path}: PGM header: only 8-bit images (maxval 255), got {maxval}")
     if magic == b"P5":
@@ -217,6 +228,10 @@ def read_pgm(path: PathLike) -> np.ndarray:
     if len(values) != width * height or not all(0 <= v <= 255 for v in values):
         raise MapFileError(f"{path}: PGM data: expected {width * height} values in 0..255")
     return np.array(values, dtype=np.uint8).reshape(height, width)
+
+
+#: Bytes read for the header before the image's size is checked (comments included).
+_HEADER_BYTES = 65536
 
 
 def _pgm_header(path: Path, data: bytes):

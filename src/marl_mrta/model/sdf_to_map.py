@@ -25,7 +25,7 @@ from typing import List, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from marl_mrta.common.yaml_file import read_input_file
-from marl_mrta.model.occupancy_map import FREE, OCCUPIED, MapOrigin, OccupancyMap
+from marl_mrta.model.occupancy_map import FREE, MAX_MAP_CELLS, OCCUPIED, MapOrigin, OccupancyMap
 
 # Solids must overlap a cell by more than this (metres) to occupy it: absorbs rounding in
 # composed poses (cos(pi/2) = 6e-17) so borders that coincide with cell borders stay exact.
@@ -367,6 +367,9 @@ def grid_spec_for(solids: Sequence[Solid], request: MapRequest, source: str) -> 
         if not all(c > 0 for c in cells):
             raise SdfError(f"{source}: origin: the obstacles lie below/left of the origin "
                            f"({origin[0]}, {origin[1]})")
+    if int(cells[0]) * int(cells[1]) > MAX_MAP_CELLS:   # the map loaders would refuse it
+        raise SdfError(f"{source}: resolution: {res:g} m gives {int(cells[0])} x {int(cells[1])} cells, more than "
+                       f"the {MAX_MAP_CELLS} a map may have")
     return GridSpec(float(origin[0]), float(origin[1]), res, int(cells[0]), int(cells[1]))
 
 

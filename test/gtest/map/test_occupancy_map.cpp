@@ -249,6 +249,8 @@ INSTANTIATE_TEST_SUITE_P(
         BadMapCase{"bad_missing_resolution.yaml", "bad_missing_resolution.yaml: resolution: missing"},
         BadMapCase{"bad_truncated_image.yaml", "truncated.pgm: pixels: truncated: expected 12 bytes, found 3"},
         BadMapCase{"bad_not_pgm.yaml", "not_pgm.pgm: header: not a PGM file (expected magic P5 or P2, found 'P6')"},
+        BadMapCase{"bad_too_large.yaml",
+                   "too_large.pgm: header: 6000 x 5000 = 30000000 cells, more than the 25000000 a map may have"},
         BadMapCase{"bad_not_a_mapping.yaml", "bad_not_a_mapping.yaml: yaml: must be a mapping"},
         BadMapCase{"no_such_map.yaml", "no_such_map.yaml: yaml: cannot open file"}));
 
