@@ -10,7 +10,12 @@ out=${OUT:-$here/results/demo}
 mkdir -p "$out"
 
 echo "== 1/3 simulator: scripted route, headless, lock-step"
-roslaunch marl_mrta sim_demo.launch output:="$out/sim_demo.json" 2>&1 | grep -v -E '^\s*$|^(started|process|logging|setting|Checking|Done checking|NODES|SUMMARY|PARAMETERS| \* |  /|ROS_MASTER|ROS_IP|auto-starting|core service|\[master\]|========)' || true
+# roslaunch's own start and shutdown lines (colour codes stripped first) are left out; sim_demo is
+# a required node, so its normal end reads "REQUIRED process has died" (a failure leaves no figures,
+# checked below).
+roslaunch marl_mrta sim_demo.launch output:="$out/sim_demo.json" 2>&1 \
+  | sed -u -e 's/\x1b\[[0-9;]*m//g' -e 's/\x1b\]2;[^\x07]*\x07//g' \
+  | grep -v -E '^\s*$|^(started|process|logging|setting|Checking|Done checking|NODES|SUMMARY|PARAMETERS| \* |  /|ROS_MASTER|ROS_IP|auto-starting|core service|\[master\]|========|\.\.\. logging|Press Ctrl-C|log file:|Initiating shutdown|shutting down processing monitor|\.\.\. shutting down|done$|    (sim_demo|simulator) \()|REQUIRED process \[sim_demo-[0-9]+\] has died|killing on exit' || true
 test -s "$out/sim_demo.json" || { echo "demo: the simulator demo wrote no figures" >&2; exit 1; }
 
 echo "== 2/3 MAPPO training (embedded executor, preset tuned)"
