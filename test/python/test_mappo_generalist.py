@@ -104,6 +104,23 @@ def test_fine_tuning_the_generalist_reaches_the_optimum_on_the_lab(name, tmp_pat
     assert shot["makespan"] == pytest.approx(optimum(name), abs=1e-6)
 
 
+def test_train_without_a_preset_fine_tunes_the_generalist(tmp_path, capsys):
+    """train's default on the embedded backend is the finetune preset from the shipped generalist
+    (a set actor that acts under the finished mask); --init none keeps the tuned preset's MLP actor."""
+    run = tmp_path / "default"
+    assert train_main(["--scenario", str(SCENARIOS / "lab_4r.xml"), "--set", "max_wall_seconds=3",
+                       "--out", str(run)]) == 0
+    out = capsys.readouterr().out
+    assert "with preset finetune" in out and "starting from generalist" in out
+    assert isinstance(load_policy(run / "actor.pt"), SetActorPolicy)
+    assert load_policy(run / "actor.pt").action_mask == "finished"
+    fresh = tmp_path / "fresh"
+    assert train_main(["--scenario", str(SCENARIOS / "lab_2r.xml"), "--init", "none", "--set", "total_env_steps=400",
+                       "--out", str(fresh)]) == 0
+    assert "with preset tuned" in capsys.readouterr().out
+    assert not isinstance(load_policy(fresh / "actor.pt"), SetActorPolicy)
+
+
 def test_bad_sizes_and_policies_end_the_commands_with_one_line(tmp_path, capsys):
     from marl_mrta.apps.bench_generalise import main as bench_main
     from marl_mrta.apps.train_generalist import main as generalist_main

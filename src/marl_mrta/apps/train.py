@@ -20,10 +20,14 @@ from marl_mrta.mappo.runner import RunError, Runner
 from marl_mrta.mappo.training_env import embedded_factory, set_view_pool
 from marl_mrta.model.scenario import ScenarioError
 
-#: The preset a run uses unless --preset names another (config/mappo/tuned.yaml).
-DEFAULT_PRESET = "tuned"
 #: The preset of a run started from an actor file (--init) without --preset: a minute of fine-tuning.
 FINETUNE_PRESET = "finetune"
+#: The preset of an embedded run unless --preset names another: the shipped generalist fine-tuned
+#: on the scenario for a minute, which holds up on scenarios no preset was tuned on (docs/mappo.md,
+#: "The generalist"). --init none (new weights) and the ros backend take the tuned preset
+#: (config/mappo/tuned.yaml), whose MLP actor learns the lab fastest.
+DEFAULT_PRESET = FINETUNE_PRESET
+NEW_WEIGHTS_PRESET = "tuned"
 #: Backends an environment can be built with by this command.
 BACKENDS = ("embedded", "ros")
 #: Errors of user input; each prints as one line.
@@ -37,8 +41,8 @@ def build_parser() -> argparse.ArgumentParser:
                              "checked when given)")
     parser.add_argument("--preset", default=None,
                         help="tuned | sequential | paper | set | finetune | path to a YAML of MAPPO settings "
-                             "(default tuned, with --init finetune; set: the set actor, any scenario size; "
-                             "see config/mappo/)")
+                             "(default finetune: the shipped generalist fine-tuned for a minute; tuned with "
+                             "--init none or --backend ros; set: the set actor, any scenario size; see config/mappo/)")
     parser.add_argument("--backend", choices=BACKENDS, default="embedded",
                         help="embedded: the embedded executor; ros: running task managers in the ROS simulation")
     parser.add_argument("--arenas", type=int, default=None,
@@ -118,7 +122,7 @@ def _resumed_runner(args: argparse.Namespace, log: Callable[[str], None]) -> Run
         raise RunError(f"--seed: {args.seed} differs from the run's seed {stored['seed']}; resume keeps the stored one")
     if args.init is not None:
         raise RunError("--init: a resumed run continues from its checkpoint; --init starts a new one")
-    if (args.preset is not None or args.set) and _settings(args, args.preset or DEFAULT_PRESET) != config:
+    if (args.preset is not None or args.set) and _settings(args, args.preset or default_preset(args)) != config:
         raise RunError(f"--preset/--set: the settings differ from those stored in {args.out}/checkpoint.pt")
     if args.backend == "ros" and args.arenas is not None and args.arenas != config.n_envs:
         raise RunError(f"--arenas: {args.arenas} differs from the run's {config.n_envs} environments")
@@ -130,8 +134,15 @@ def _resumed_runner(args: argparse.Namespace, log: Callable[[str], None]) -> Run
     return runner
 
 
+def default_preset(args: argparse.Namespace) -> str:
+    """The preset of a run without --preset."""
+    if args.init == "none" or args.backend == "ros":
+        return NEW_WEIGHTS_PRESET
+    return FINETUNE_PRESET if args.init is not None else DEFAULT_PRESET
+
+
 def _fresh_runner(args: argparse.Namespace, log: Callable[[str], None]) -> Runner:
-    preset = args.preset or (FINETUNE_PRESET if args.init not in (None, "none") else DEFAULT_PRESET)
+    preset = args.preset or default_preset(args)
     seed = 0 if args.seed is None else args.seed
     config = _settings(args, preset)
     scenario_arg = args.scenario if args.scenario is not None else (
