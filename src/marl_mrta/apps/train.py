@@ -20,13 +20,12 @@ from marl_mrta.mappo.runner import RunError, Runner
 from marl_mrta.mappo.training_env import embedded_factory, set_view_pool
 from marl_mrta.model.scenario import ScenarioError
 
-#: The preset of a run started from an actor file (--init) without --preset: a minute of fine-tuning.
+#: The preset of a run without --preset: an actor file (--init, default the shipped generalist)
+#: fine-tuned on the scenario for a minute, which holds up on scenarios no preset was tuned on
+#: (docs/mappo.md, "The generalist").
 FINETUNE_PRESET = "finetune"
-#: The preset of an embedded run unless --preset names another: the shipped generalist fine-tuned
-#: on the scenario for a minute, which holds up on scenarios no preset was tuned on (docs/mappo.md,
-#: "The generalist"). --init none (new weights) and the ros backend take the tuned preset
-#: (config/mappo/tuned.yaml), whose MLP actor learns the lab fastest.
-DEFAULT_PRESET = FINETUNE_PRESET
+#: ... but with --init none (new weights) or the ros backend: the tuned preset's MLP actor
+#: (config/mappo/tuned.yaml), which learns the lab fastest.
 NEW_WEIGHTS_PRESET = "tuned"
 #: Backends an environment can be built with by this command.
 BACKENDS = ("embedded", "ros")
@@ -136,9 +135,7 @@ def _resumed_runner(args: argparse.Namespace, log: Callable[[str], None]) -> Run
 
 def default_preset(args: argparse.Namespace) -> str:
     """The preset of a run without --preset."""
-    if args.init == "none" or args.backend == "ros":
-        return NEW_WEIGHTS_PRESET
-    return FINETUNE_PRESET if args.init is not None else DEFAULT_PRESET
+    return NEW_WEIGHTS_PRESET if args.init == "none" or args.backend == "ros" else FINETUNE_PRESET
 
 
 def _fresh_runner(args: argparse.Namespace, log: Callable[[str], None]) -> Runner:
