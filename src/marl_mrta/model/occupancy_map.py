@@ -204,15 +204,13 @@ def read_pgm(path: PathLike) -> np.ndarray:
     try:
         with path.open("rb") as image:
             head = image.read(_HEADER_BYTES)
-            tokens, _ = _pgm_header(path, head)
-            magic, width, height, maxval = tokens
+            (magic, width, height, maxval), offset = _pgm_header(path, head)
             if width * height > MAX_MAP_CELLS:
                 raise MapFileError(f"{path}: PGM header: {width} x {height} = {width * height} cells, more than "
                                    f"the {MAX_MAP_CELLS} a map may have (a 250 m square at 0.05 m)")
             data = head + image.read()
     except OSError as err:
         raise MapFileError(f"{path}: image: cannot read ({err.strerror})") from None
-    tokens, offset = _pgm_header(path, data)
     if maxval != 255:
         raise MapFileError(f"{path}: PGM header: only 8-bit images (maxval 255), got {maxval}")
     if magic == b"P5":
