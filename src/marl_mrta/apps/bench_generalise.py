@@ -5,6 +5,8 @@ Test scenarios are drawn by model/generator.py from a seed no training run uses 
 - the reference: the best known plan and the proven lower bound (baselines/reference.py, CP-SAT
   limited to `--reference-seconds` per model); every ratio below is a makespan ÷ that bound;
 - zero-shot: the generalist's greedy episode (embedded, ideal), and its time per decision;
+- zero-shot with rollout: the generalist's rollout plan (evaluation/rollout.py, the budget of
+  config/task_baselines.yaml), no training either, and its planning time;
 - the GA's plan;
 - on the first `--finetune` test scenarios and the lab ones: `train --init generalist` (preset
   finetune: one minute of wall time) and its best greedy episode;
@@ -26,6 +28,7 @@ import os
 import platform
 import sys
 import tempfile
+import time
 from pathlib import Path
 from typing import Any, Callable, Dict, List, Optional, Sequence
 
@@ -37,7 +40,9 @@ from marl_mrta.baselines.reference import scheduling_instance, solve_reference
 from marl_mrta.baselines.settings import load_baseline_settings
 from marl_mrta.common.config import ConfigError
 from marl_mrta.common.paths import package_root
+from marl_mrta.env.factory import make_env
 from marl_mrta.env.settings import load_task_settings
+from marl_mrta.evaluation.rollout import rollout_plan
 from marl_mrta.evaluation.training import offer_teacher_plan, on_new_env
 from marl_mrta.mappo.config import load_config, resolve_preset
 from marl_mrta.mappo.policy import PolicyFileError, SetActorPolicy, load_policy, read_actor_file
@@ -122,11 +127,17 @@ def bench(args: argparse.Namespace, log: Callable[[str], None] = print) -> Dict[
             reference = solve_reference(instance, settings, candidates=[ga])
             bound = reference.lower_bound
             shot = zero_shot(policy, scenario, mask)
+            started = time.perf_counter()
+            rolled = rollout_plan(policy.for_scenario(scenario), make_env(scenario, "embedded", profile="ideal", mask=mask),
+                                  instance, settings.rollout)
+            rollout_s = time.perf_counter() - started
             row: Dict[str, Any] = {
                 "scenario": scenario.name if lab else f"test_{k - len(labs):03d}", "lab": lab,
                 "robots": scenario.n_robots, "tasks": scenario.n_tasks, "best": reference.best_makespan,
                 "bound": bound, "proven_optimal": reference.proven_optimal,
                 "zero_shot": ratio(shot["makespan"], bound), "decision_ms": shot["decision_ms"],
+                "rollout": ratio(rolled.makespan if rolled.complete and rolled.logic_violations == 0 else math.inf, bound),
+                "rollout_s": rollout_s, "rollout_play_outs": rolled.details["play_outs"],
                 "ga": ratio(ga.makespan if ga.complete and ga.logic_violations == 0 else math.inf, bound)}
             index = k - len(labs)
             if lab or index < args.finetune:
@@ -139,18 +150,22 @@ def bench(args: argparse.Namespace, log: Callable[[str], None] = print) -> Dict[
             extra = "".join(f", {key} {row[key]:.3f}" for key in ("finetuned", "mappo") if key in row)
             log(f"{k + 1}/{len(labs) + len(tests)} {row['scenario']} {row['robots']}x{row['tasks']}: bound "
                 f"{bound:.2f} s{'' if row['proven_optimal'] else ' (gap ' + format(100 * reference.gap, '.1f') + ' %)'}, "
-                f"zero-shot {row['zero_shot']:.3f}, GA {row['ga']:.3f}{extra}")
+                f"zero-shot {row['zero_shot']:.3f}, rollout {row['rollout']:.3f}, GA {row['ga']:.3f}{extra}")
     test_rows = [r for r in rows if not r["lab"]]
     lab_rows = [r for r in rows if r["lab"]]
     figures = {
         "zero_shot": summary_of([r["zero_shot"] for r in test_rows]),
         "finetuned": summary_of([r["finetuned"] for r in test_rows if "finetuned" in r]),
+        "rollout": summary_of([r["rollout"] for r in test_rows]),
         "ga": summary_of([r["ga"] for r in test_rows]),
         "mappo": summary_of([r["mappo"] for r in test_rows if "mappo" in r]),
         "ga_on_finetuned_ones": summary_of([r["ga"] for r in test_rows if "finetuned" in r]),
         "zero_shot_on_mappo_ones": summary_of([r["zero_shot"] for r in test_rows if "mappo" in r]),
         "lab_zero_shot": {r["scenario"]: r["zero_shot"] for r in lab_rows},
+        "lab_rollout": {r["scenario"]: r["rollout"] for r in lab_rows},
         "lab_finetuned": {r["scenario"]: r.get("finetuned", math.inf) for r in lab_rows},
+        "rollout_s_mean": float(np.mean([r["rollout_s"] for r in rows])),
+        "rollout_s_max": float(np.max([r["rollout_s"] for r in rows])),
         "decision_ms_mean": float(np.mean([r["decision_ms"] for r in rows])),
         "proven_optimal_bounds": sum(r["proven_optimal"] for r in test_rows),
     }
@@ -162,6 +177,10 @@ def bench(args: argparse.Namespace, log: Callable[[str], None] = print) -> Dict[
         {"figure": "zero-shot / best bound, p90", "unit": "", "value": round(figures["zero_shot"]["p90"], 4), "goal": ""},
         {"figure": "zero-shot failures (incomplete or inconsistent)", "unit": "", "value": figures["zero_shot"]["failed"],
          "goal": "0"},
+        {"figure": "zero-shot with rollout (no training) / best bound, mean", "unit": "",
+         "value": round(figures["rollout"]["mean"], 4), "goal": f"<= {GOALS['zero_shot_mean']} and <= GA"},
+        {"figure": "zero-shot with rollout / best bound, p90", "unit": "", "value": round(figures["rollout"]["p90"], 4),
+         "goal": ""},
         {"figure": "GA / best bound, mean", "unit": "", "value": round(figures["ga"]["mean"], 4), "goal": ""},
         {"figure": f"after {args.finetune_seconds:g} s of fine-tuning / best bound, mean of {figures['finetuned']['n']}",
          "unit": "", "value": round(figures["finetuned"]["mean"], 4), "goal": f"<= {GOALS['finetuned_mean']}"},
@@ -170,6 +189,8 @@ def bench(args: argparse.Namespace, log: Callable[[str], None] = print) -> Dict[
         {"figure": "lab zero-shot / optimum, worst of lab_2r/3r/4r", "unit": "",
          "value": round(max(figures["lab_zero_shot"].values()), 4), "goal": "1.0"},
         {"figure": "time per decision step of the team", "unit": "ms", "value": round(figures["decision_ms_mean"], 2),
+         "goal": ""},
+        {"figure": "rollout planning time per scenario, mean", "unit": "s", "value": round(figures["rollout_s_mean"], 2),
          "goal": ""},
     ]
     if training.get("total_s") is not None:

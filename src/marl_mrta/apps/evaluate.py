@@ -3,6 +3,7 @@
     evaluate --method random,ga,auction,exact --scenario scenarios/lab_2r.xml --episodes 20 \
              --executor embedded --seed 0 --out results/eval_lab_2r.json
     evaluate --method exact --episodes 5 --executor ros     # through a running task manager (tasks.launch)
+    evaluate --method policy,rollout --policy generalist --scenario my_floor.xml   # the actor, and its rollout plan
 
 Writes the JSON (summaries, plans, the reference: best known makespan, proven lower bound and
 gap, representative episodes) and one Gantt chart PNG per method (<out stem>_<method>_gantt.png).
@@ -32,11 +33,14 @@ from marl_mrta.env.factory import EXECUTORS, make_env
 from marl_mrta.env.settings import MASK_MODES
 from marl_mrta.evaluation.loop import run_episodes
 from marl_mrta.evaluation.policies import LearnedPolicy, PlanPolicy, PolicyLoadError
+from marl_mrta.evaluation.rollout import rollout_plan
 from marl_mrta.evaluation.summary import (ProgressLine, episode_rows, format_table, method_report,
                                           write_document)
-from marl_mrta.model.scenario import ScenarioError
+from marl_mrta.model.scenario import Scenario, ScenarioError
 
-METHODS = ("random", "ga", "exact", "auction", "policy")
+METHODS = ("random", "ga", "exact", "auction", "policy", "rollout")
+#: The methods that act with an actor file (--policy).
+POLICY_METHODS = ("policy", "rollout")
 #: "ros": episodes run in the ROS graph through rl_task_allocation_manager's services.
 CLI_EXECUTORS = EXECUTORS + ("ros",)
 DEFAULT_SCENARIO = package_root() / "scenarios" / "lab_2r.xml"
@@ -62,7 +66,8 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> argparse.Namespace:
     parser.add_argument("--mask", default=None, choices=MASK_MODES, help="action masks (default: for --method policy the mask the actor was trained with, "
                         "else config/task.yaml)")
     parser.add_argument("--policy", default=None,
-                        help="actor file for --method policy (an MLP actor: its scenario; a set actor: any scenario)")
+                        help="actor file for --method policy or rollout (an MLP actor: its scenario; a set actor: any "
+                             "scenario), or generalist (the shipped set actor)")
     parser.add_argument("--seed", type=int, default=0, help="seed of episodes and planners (default 0)")
     parser.add_argument("--out", default=None,
                         help="JSON output file, or a directory for the default name "
@@ -85,8 +90,9 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> argparse.Namespace:
         raise UsageError(f"--method: {', '.join(unknown) or 'nothing given'}: choose from {', '.join(METHODS)}")
     if args.episodes < 1:
         raise UsageError(f"--episodes: must be at least 1, got {args.episodes}")
-    if "policy" in methods and not args.policy:
-        raise UsageError("--policy: the policy method needs an actor file (--policy path/to/actor.pt)")
+    needs_actor = [m for m in methods if m in POLICY_METHODS]
+    if needs_actor and not args.policy:
+        raise UsageError(f"--policy: the {needs_actor[0]} method needs an actor file (--policy path/to/actor.pt)")
     if args.time_limit is not None and not args.time_limit > 0:
         raise UsageError(f"--time-limit: must be positive, got {args.time_limit:g}")
     if args.precedence_margin is not None and not (math.isfinite(args.precedence_margin)
@@ -120,6 +126,25 @@ def plan_for(method: str, instance: SchedulingInstance, settings, seed: int) -> 
     if method == "auction":
         return solve_auction(instance, settings.auction_objective)
     raise ValueError(method)
+
+
+def rollout_for(args: argparse.Namespace, scenario: Scenario, instance: SchedulingInstance, settings) -> Plan:
+    """The actor's rollout plan, made on an embedded, ideal environment of the scenario under the
+    actor's own mask (whatever executor runs the episodes)."""
+    mask = LearnedPolicy.trained_mask(args.policy, None)
+    env = make_env(scenario, "embedded", profile="ideal", mask=mask, seed=args.seed)
+    learned = LearnedPolicy.from_file(args.policy, env.n_agents, env.obs_dim, env.n_actions, seed=args.seed,
+                                      scenario=scenario)
+    if not learned.actor.sequential:
+        raise PolicyLoadError(f"--method rollout: the robots of {args.policy} decide at once; rollout tries other "
+                              f"actions at each robot's turn, so it needs an actor that decides in turn (presets "
+                              f"sequential, set, finetune, or the generalist)")
+    plan = rollout_plan(learned.actor, env, instance, settings.rollout, args.seed)
+    details = plan.details
+    print(f"  rollout: {details['play_outs']} episodes played out, {plan.makespan:.2f} s (the actor alone "
+          f"{details['greedy_makespan']:.2f} s)" + ("; budget reached, the actor decided the rest"
+                                                    if details["budget_reached"] else ""), file=sys.stderr)
+    return plan
 
 
 def ratio_note(reference: Reference) -> str:
@@ -178,6 +203,8 @@ def evaluate(args: argparse.Namespace) -> int:
     instance = scheduling_instance(scenario, env.settings.min_step, env.settings.goal_timeout, margin)
     task_ids = [t.id for t in scenario.tasks]
     plans: Dict[str, Plan] = {m: plan_for(m, instance, settings, args.seed) for m in args.methods if m in ("ga", "auction")}
+    if "rollout" in args.methods:
+        plans["rollout"] = rollout_for(args, scenario, instance, settings)
 
     reference: Optional[Reference] = None
     if not args.no_exact or "exact" in args.methods:

@@ -25,6 +25,14 @@ class GaSettings:
 
 
 @dataclass(frozen=True)
+class RolloutBudget:
+    """The rollout planner's search (evaluation/rollout.py)."""
+    alternatives: int = 3          # tried at each robot's turn: the actor's most likely other actions, and
+                                   # as many of the nearest open tasks its precedence mask holds back
+    max_rollouts: int = 1000       # episodes played out at the most; then the rest follows the actor
+
+
+@dataclass(frozen=True)
 class BaselineSettings:
     random_choice: str
     ga: GaSettings
@@ -34,6 +42,7 @@ class BaselineSettings:
     astar_max_tasks: int           # and at most this many tasks (its states grow as 2^n_tasks)
     cpsat: CpSatBudget
     precedence_margin: float       # s between a predecessor's finish and a successor's arrival in one step
+    rollout: RolloutBudget
 
     def with_cpsat(self, time_limit: Optional[float] = None, workers: Optional[int] = None) -> "BaselineSettings":
         """These settings with the CP-SAT time limit and worker count replaced where given."""
@@ -60,6 +69,7 @@ def load_baseline_settings(path: Optional[Union[str, Path]] = None) -> BaselineS
                         max_states=exact.integer("max_states", minimum=1),
                         time_limit=exact.number("time_limit", above=0.0), memory_mb=exact.number("memory_mb", above=0.0))
     cpsat = root.section("cpsat")
+    rollout = root.section("rollout")
     budget = CpSatBudget(time_limit=cpsat.number("time_limit", above=0.0), workers=cpsat.integer("workers", minimum=1),
                          seed=cpsat.integer("seed", minimum=0), memory_mb=cpsat.number("memory_mb", above=0.0))
     settings = BaselineSettings(
@@ -71,6 +81,8 @@ def load_baseline_settings(path: Optional[Union[str, Path]] = None) -> BaselineS
         astar_max_tasks=exact.integer("astar_max_tasks", minimum=1, maximum=60),
         cpsat=budget,
         precedence_margin=root.number("precedence_margin", minimum=0.0),
+        rollout=RolloutBudget(alternatives=rollout.integer("alternatives", minimum=1),
+                              max_rollouts=rollout.integer("max_rollouts", minimum=1)),
     )
     root.check_all_used()
     return settings

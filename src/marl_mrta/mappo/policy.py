@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Any, Dict, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import torch
@@ -30,6 +30,10 @@ SET_ACTOR_FORMAT = "marl_mrta.mappo.actor/2"
 #: Actor files shipped with the package, by the name that stands for them wherever an actor file
 #: is taken (evaluate --policy, execute.launch policy:=, train --init): policies/<name>.pt.
 SHIPPED_POLICIES = ("generalist",)
+
+#: act_team's hook on an in-turn decision: (turn, robot, logits (n_actions,), mask (n_actions,)) ->
+#: the action to take at that turn, or None for the actor's own choice.
+TurnPick = Callable[[int, int, torch.Tensor, torch.Tensor], Optional[int]]
 
 
 class PolicyFileError(ValueError):
@@ -122,21 +126,27 @@ class ActorPolicy:
 
     @torch.no_grad()
     def act_team(self, obs: np.ndarray, action_mask: Optional[np.ndarray], hidden: torch.Tensor,
-                 deterministic: bool = True) -> Tuple[np.ndarray, torch.Tensor]:
+                 deterministic: bool = True, pick: Optional[TurnPick] = None) -> Tuple[np.ndarray, torch.Tensor]:
         """One decision of the whole team (robots 0..n-1), in the order the actor was trained
-        with: at once, or one after another with the tasks claimed so far (mappo/claims.py)."""
+        with: at once, or one after another with the tasks claimed so far (mappo/claims.py).
+        pick(turn, robot, logits, mask) (sequential actors only) sees each turn's distribution and may
+        return the action instead of the actor's own choice (None: the actor's)."""
         if not self.sequential:
+            if pick is not None:
+                raise ValueError(f"{self.source}: the robots of this actor decide at once, not in turn")
             return self.act(obs, action_mask, hidden, deterministic)
         rows = self.encode(np.asarray(obs, dtype=np.float32), range(len(obs)))   # once for every turn
         env_mask = torch.ones(len(rows), self.n_actions, dtype=torch.bool) if action_mask is None \
             else torch.as_tensor(np.asarray(action_mask, dtype=bool))
         hidden_rows = [hidden[i:i + 1] for i in range(len(rows))]
+        turn = iter(range(len(rows)))
 
         def decide(robot: torch.Tensor, claimed: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
             i = int(robot)
             logits, mask_t, hidden_rows[i] = self._logits_of_rows(rows[i:i + 1], mask[None], hidden[i:i + 1], [i],
                                                                   claimed.numpy()[None])
-            return self._pick(logits, mask_t, deterministic)[0]
+            chosen = None if pick is None else pick(next(turn), i, logits[0], mask_t[0])
+            return self._pick(logits, mask_t, deterministic)[0] if chosen is None else torch.tensor(chosen)
 
         actions = self.claim_rules.decide_in_turn(env_mask, decide, self.turns_of_rows(rows))
         return actions.numpy().astype(np.int64), torch.cat(hidden_rows, 0)

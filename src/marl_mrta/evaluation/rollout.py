@@ -1,0 +1,158 @@
+"""A learned actor improved by rollout: a plan from the policy, without training on the scenario.
+
+The rollout algorithm (Bertsekas, "Rollout algorithms for discrete optimization", 2013): the
+actor's greedy episode is the incumbent. At each decision step, at every robot's turn, other
+actions are tried: the actor's most likely ones (`alternatives`) and as many of the nearest open
+tasks its precedence mask holds back. Each is played out to the episode's end on the embedded
+executor's nominal times, the actor deciding everything else, and the shortest episode becomes
+the incumbent when it is strictly shorter; the step then tries one more deviation at its other
+turns, and so on, before the next step is decided. The result is therefore never longer than the
+greedy episode. Each play-out replays the episode from its reset (the ideal profile draws
+nothing, so a replay is the same episode). After `max_rollouts` play-outs the actor decides the
+rest alone.
+
+The result is a plan (joint actions), executed as the planners' are: on any executor and in ROS
+(evaluate --method rollout --policy P). The robots' own actor nodes (execute.launch) keep deciding
+from the actor alone.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Dict, List, Optional, Sequence, Set, Tuple
+
+import numpy as np
+import torch
+
+from marl_mrta.baselines.plan import NominalRun, Plan, SchedulingInstance, plan_from_run, simulate_joint_actions
+from marl_mrta.baselines.settings import RolloutBudget
+from marl_mrta.env.api import StepOutput, TaskAllocationEnv
+from marl_mrta.evaluation.loop import MAX_STEPS
+from marl_mrta.mappo.networks import masked_logits
+from marl_mrta.mappo.policy import ActorPolicy
+
+#: One step's deviations from the actor: {turn: action} at those turns of the in-turn decision
+#: (empty: the actor's own joint action).
+Deviation = Dict[int, int]
+
+
+@dataclass
+class _Turn:
+    """One turn of the watched step: who chose, from what, and from where."""
+    robot: int
+    logits: torch.Tensor                # (n_actions,), blocked actions at the lowest float
+    mask: torch.Tensor                  # (n_actions,) what the actor could choose
+    claimed: Set[int]                   # tasks claimed at the turns before
+    node: int                           # the robot's node in the travel table
+
+
+@dataclass
+class _PlayOut:
+    makespan: float                     # inf: incomplete or out of precedence order
+    joint_actions: List[List[int]]
+    turns: Optional[List[_Turn]]        # the watched step's turns (None: the episode ended before it)
+    finished: List[bool]                # the tasks finished before the watched step
+
+
+class RolloutPlanner:
+    """Plans a scenario with an in-turn actor (ActorPolicy.act_team's `pick` hook) on an embedded,
+    ideal environment of it; `instance` is the same scenario in nominal numbers (travel times,
+    robot nodes)."""
+
+    def __init__(self, actor: ActorPolicy, env: TaskAllocationEnv, instance: SchedulingInstance,
+                 budget: RolloutBudget, seed: int = 0):
+        if not getattr(actor, "sequential", False):
+            raise ValueError(f"{actor.source}: rollout needs an actor whose robots decide in turn")
+        self.actor, self.env, self.instance, self.budget, self.seed = actor, env, instance, budget, seed
+        self.none = env.n_tasks
+        self.play_outs = 0
+
+    def play(self, deviations: Sequence[Deviation], watch: Optional[int] = None) -> _PlayOut:
+        """The episode with `deviations` at its first steps and the actor's choices after them;
+        with `watch`, also the turns of that step."""
+        output: StepOutput = self.env.reset(seed=self.seed)
+        hidden = self.actor.initial_hidden(self.env.n_agents)
+        run = NominalRun(self.instance)                 # the robots' nodes and finished tasks, step by step
+        joint: List[List[int]] = []
+        turns: Optional[List[_Turn]] = None
+        finished: List[bool] = []
+        for step in range(MAX_STEPS):
+            deviation = deviations[step] if step < len(deviations) else {}
+            seen: Optional[List[_Turn]] = [] if step == watch else None
+            claimed: Set[int] = set()
+
+            def pick(turn: int, robot: int, logits: torch.Tensor, mask: torch.Tensor, deviation=deviation,
+                     seen=seen, claimed=claimed) -> Optional[int]:
+                if seen is not None:
+                    seen.append(_Turn(robot, logits, mask, set(claimed), run.positions[robot]))
+                forced = turn in deviation
+                action = deviation[turn] if forced else int(masked_logits(logits, mask).argmax())
+                claimed.add(action)
+                return action if forced else None
+
+            if seen is not None:
+                finished = list(run.finished)
+            actions, hidden = self.actor.act_team(output.obs, output.action_mask, hidden, pick=pick)
+            turns = turns if seen is None else seen
+            joint.append([int(a) for a in np.asarray(actions).reshape(-1)])
+            run.apply([None if a == self.none else a for a in joint[-1]])
+            output = self.env.step(joint[-1])
+            if output.done or output.truncated:
+                record = output.info.episode
+                done = record.complete and record.logic_consistent
+                return _PlayOut(record.makespan if done else math.inf, joint, turns, finished)
+        raise RuntimeError(f"the rollout's episode did not end within {MAX_STEPS} steps")
+
+    def alternatives(self, turn: _Turn, finished: Sequence[bool]) -> List[int]:
+        """The actions tried at a turn besides the actor's: its most likely other allowed ones, and
+        the nearest open tasks its precedence mask holds back (a robot heading for a successor
+        whose predecessor a robot after it takes: plans the actor's in-turn decision cannot make)."""
+        ranked = torch.where(turn.mask, turn.logits, torch.full_like(turn.logits, -math.inf))
+        order = sorted(range(len(ranked)), key=lambda a: (-float(ranked[a]), a))
+        own = [a for a in order if bool(turn.mask[a])][1:1 + self.budget.alternatives]
+        legs = self.instance.travel_rows[turn.node]
+        held = [t for t in range(self.none) if not finished[t] and t not in turn.claimed and not bool(turn.mask[t])]
+        held.sort(key=lambda t: (legs[self.instance.node(t)], t))
+        return own + held[:self.budget.alternatives]
+
+    def plan(self) -> Tuple[List[List[int]], float, float]:
+        """The improved episode's joint actions (none = n_tasks), its makespan, and the actor's
+        greedy makespan."""
+        deviations: List[Deviation] = []
+        watched = self.play(deviations, watch=0)   # the incumbent, with the turns of the step being decided
+        self.play_outs = 1
+        greedy = watched.makespan
+        while watched.turns is not None and self.play_outs < self.budget.max_rollouts:
+            step: Deviation = {}
+            while True:   # one more deviation in this step while one shortens the episode
+                best, chosen = watched.makespan, None
+                for index, turn in enumerate(watched.turns):
+                    if index in step:
+                        continue
+                    for action in self.alternatives(turn, watched.finished):
+                        if self.play_outs >= self.budget.max_rollouts:
+                            break
+                        trial = {**step, index: action}
+                        makespan = self.play(deviations + [trial]).makespan
+                        self.play_outs += 1
+                        if makespan < best - 1e-9:
+                            best, chosen = makespan, trial
+                if chosen is None:
+                    break
+                step = chosen
+                watched = self.play(deviations + [step], watch=len(deviations))   # the turns after the new deviation
+            deviations.append(step)
+            watched = self.play(deviations, watch=len(deviations))
+        return watched.joint_actions, watched.makespan, greedy
+
+
+def rollout_plan(actor: ActorPolicy, env: TaskAllocationEnv, instance: SchedulingInstance,
+                 budget: RolloutBudget, seed: int = 0) -> Plan:
+    """The rollout's episode as a plan of `instance` (the scenario's nominal numbers)."""
+    planner = RolloutPlanner(actor, env, instance, budget, seed)
+    joint, _, greedy = planner.plan()
+    none = env.n_tasks
+    goals = [[None if a == none else a for a in step] for step in joint]
+    run = simulate_joint_actions(instance, goals)
+    return plan_from_run("rollout", run, play_outs=planner.play_outs, greedy_makespan=greedy,
+                         budget_reached=planner.play_outs >= budget.max_rollouts)
