@@ -12,7 +12,6 @@ from marl_mrta.baselines.reference import scheduling_instance
 from marl_mrta.baselines.settings import RolloutBudget, load_baseline_settings
 from marl_mrta.common.config import ConfigError
 from marl_mrta.common.paths import default_config_path, package_root
-from marl_mrta.env.factory import make_env
 from marl_mrta.env.settings import load_task_settings
 from marl_mrta.evaluation.rollout import rollout_plan
 from marl_mrta.mappo.policy import load_policy
@@ -24,9 +23,8 @@ JOIN = package_root() / "test" / "data" / "scenarios" / "join_2r4t.xml"
 def planned(path, budget):
     scenario = load_scenario(path)
     task = load_task_settings()
-    env = make_env(scenario, "embedded", profile="ideal", mask="finished")
     instance = scheduling_instance(scenario, task.min_step, task.goal_timeout)
-    return rollout_plan(load_policy("generalist").for_scenario(scenario), env, instance, budget), instance
+    return rollout_plan(load_policy("generalist"), scenario, instance, budget, "finished"), instance
 
 
 def test_rollout_takes_the_optimum_the_actor_alone_misses():

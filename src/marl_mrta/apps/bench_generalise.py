@@ -40,7 +40,6 @@ from marl_mrta.baselines.reference import scheduling_instance, solve_reference
 from marl_mrta.baselines.settings import load_baseline_settings
 from marl_mrta.common.config import ConfigError
 from marl_mrta.common.paths import package_root
-from marl_mrta.env.factory import make_env
 from marl_mrta.env.settings import load_task_settings
 from marl_mrta.evaluation.rollout import rollout_plan
 from marl_mrta.evaluation.training import offer_teacher_plan, on_new_env
@@ -128,8 +127,7 @@ def bench(args: argparse.Namespace, log: Callable[[str], None] = print) -> Dict[
             bound = reference.lower_bound
             shot = zero_shot(policy, scenario, mask)
             started = time.perf_counter()
-            rolled = rollout_plan(policy.for_scenario(scenario), make_env(scenario, "embedded", profile="ideal", mask=mask),
-                                  instance, settings.rollout)
+            rolled = rollout_plan(policy, scenario, instance, settings.rollout, mask)
             rollout_s = time.perf_counter() - started
             row: Dict[str, Any] = {
                 "scenario": scenario.name if lab else f"test_{k - len(labs):03d}", "lab": lab,

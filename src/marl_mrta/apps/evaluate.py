@@ -33,9 +33,10 @@ from marl_mrta.env.factory import EXECUTORS, make_env
 from marl_mrta.env.settings import MASK_MODES
 from marl_mrta.evaluation.loop import run_episodes
 from marl_mrta.evaluation.policies import LearnedPolicy, PlanPolicy, PolicyLoadError
-from marl_mrta.evaluation.rollout import rollout_plan
+from marl_mrta.evaluation.rollout import RolloutError, rollout_plan
 from marl_mrta.evaluation.summary import (ProgressLine, episode_rows, format_table, method_report,
                                           write_document)
+from marl_mrta.mappo.policy import PolicyFileError, load_policy
 from marl_mrta.model.scenario import Scenario, ScenarioError
 
 METHODS = ("random", "ga", "exact", "auction", "policy", "rollout")
@@ -131,15 +132,14 @@ def plan_for(method: str, instance: SchedulingInstance, settings, seed: int) -> 
 def rollout_for(args: argparse.Namespace, scenario: Scenario, instance: SchedulingInstance, settings) -> Plan:
     """The actor's rollout plan, made on an embedded, ideal environment of the scenario under the
     actor's own mask (whatever executor runs the episodes)."""
-    mask = LearnedPolicy.trained_mask(args.policy, None)
-    env = make_env(scenario, "embedded", profile="ideal", mask=mask, seed=args.seed)
-    learned = LearnedPolicy.from_file(args.policy, env.n_agents, env.obs_dim, env.n_actions, seed=args.seed,
-                                      scenario=scenario)
-    if not learned.actor.sequential:
-        raise PolicyLoadError(f"--method rollout: the robots of {args.policy} decide at once; rollout tries other "
-                              f"actions at each robot's turn, so it needs an actor that decides in turn (presets "
-                              f"sequential, set, finetune, or the generalist)")
-    plan = rollout_plan(learned.actor, env, instance, settings.rollout, args.seed)
+    try:
+        actor = load_policy(args.policy, seed=args.seed, scenario=scenario)
+    except (PolicyFileError, ScenarioError) as error:
+        raise PolicyLoadError(str(error)) from None
+    try:
+        plan = rollout_plan(actor, scenario, instance, settings.rollout, actor.action_mask, args.seed)
+    except RolloutError as error:
+        raise PolicyLoadError(f"--method rollout: {error}") from None
     details = plan.details
     print(f"  rollout: {details['play_outs']} episodes played out, {plan.makespan:.2f} s (the actor alone "
           f"{details['greedy_makespan']:.2f} s)" + ("; budget reached, the actor decided the rest"

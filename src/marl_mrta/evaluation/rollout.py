@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Dict, List, Optional, Sequence, Set, Tuple
+from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 import torch
@@ -27,9 +27,14 @@ import torch
 from marl_mrta.baselines.plan import NominalRun, Plan, SchedulingInstance, plan_from_run, simulate_joint_actions
 from marl_mrta.baselines.settings import RolloutBudget
 from marl_mrta.env.api import StepOutput, TaskAllocationEnv
+from marl_mrta.env.factory import make_env
 from marl_mrta.evaluation.loop import MAX_STEPS
-from marl_mrta.mappo.networks import masked_logits
 from marl_mrta.mappo.policy import ActorPolicy
+from marl_mrta.model.scenario import Scenario
+
+class RolloutError(ValueError):
+    """An actor the rollout cannot use on this scenario; str(error) is one line."""
+
 
 #: One step's deviations from the actor: {turn: action} at those turns of the in-turn decision
 #: (empty: the actor's own joint action).
@@ -42,7 +47,7 @@ class _Turn:
     robot: int
     logits: torch.Tensor                # (n_actions,), blocked actions at the lowest float
     mask: torch.Tensor                  # (n_actions,) what the actor could choose
-    claimed: Set[int]                   # tasks claimed at the turns before
+    claimed: torch.Tensor               # (n_tasks,) bool: claimed at the turns before
     node: int                           # the robot's node in the travel table
 
 
@@ -61,8 +66,13 @@ class RolloutPlanner:
 
     def __init__(self, actor: ActorPolicy, env: TaskAllocationEnv, instance: SchedulingInstance,
                  budget: RolloutBudget, seed: int = 0):
-        if not getattr(actor, "sequential", False):
-            raise ValueError(f"{actor.source}: rollout needs an actor whose robots decide in turn")
+        if not actor.sequential:
+            raise RolloutError(f"the robots of {actor.source} decide at once; rollout tries other actions at each "
+                               f"robot's turn, so it needs an actor that decides in turn (presets sequential, set, "
+                               f"finetune, or the generalist)")
+        if (actor.obs_dim, actor.n_actions) != (env.obs_dim, env.n_actions):
+            raise RolloutError(f"{actor.source}: the actor expects observations of {actor.obs_dim} values and "
+                               f"{actor.n_actions} actions; this scenario has {env.obs_dim} and {env.n_actions}")
         self.actor, self.env, self.instance, self.budget, self.seed = actor, env, instance, budget, seed
         self.none = env.n_tasks
         self.play_outs = 0
@@ -79,16 +89,12 @@ class RolloutPlanner:
         for step in range(MAX_STEPS):
             deviation = deviations[step] if step < len(deviations) else {}
             seen: Optional[List[_Turn]] = [] if step == watch else None
-            claimed: Set[int] = set()
 
-            def pick(turn: int, robot: int, logits: torch.Tensor, mask: torch.Tensor, deviation=deviation,
-                     seen=seen, claimed=claimed) -> Optional[int]:
+            def pick(turn: int, robot: int, logits: torch.Tensor, mask: torch.Tensor, claimed: torch.Tensor,
+                     deviation=deviation, seen=seen) -> Optional[int]:
                 if seen is not None:
-                    seen.append(_Turn(robot, logits, mask, set(claimed), run.positions[robot]))
-                forced = turn in deviation
-                action = deviation[turn] if forced else int(masked_logits(logits, mask).argmax())
-                claimed.add(action)
-                return action if forced else None
+                    seen.append(_Turn(robot, logits, mask, claimed, run.positions[robot]))
+                return deviation.get(turn)
 
             if seen is not None:
                 finished = list(run.finished)
@@ -111,7 +117,7 @@ class RolloutPlanner:
         order = sorted(range(len(ranked)), key=lambda a: (-float(ranked[a]), a))
         own = [a for a in order if bool(turn.mask[a])][1:1 + self.budget.alternatives]
         legs = self.instance.travel_rows[turn.node]
-        held = [t for t in range(self.none) if not finished[t] and t not in turn.claimed and not bool(turn.mask[t])]
+        held = [t for t in range(self.none) if not (finished[t] or turn.claimed[t] or turn.mask[t])]
         held.sort(key=lambda t: (legs[self.instance.node(t)], t))
         return own + held[:self.budget.alternatives]
 
@@ -146,13 +152,14 @@ class RolloutPlanner:
         return watched.joint_actions, watched.makespan, greedy
 
 
-def rollout_plan(actor: ActorPolicy, env: TaskAllocationEnv, instance: SchedulingInstance,
-                 budget: RolloutBudget, seed: int = 0) -> Plan:
-    """The rollout's episode as a plan of `instance` (the scenario's nominal numbers)."""
-    planner = RolloutPlanner(actor, env, instance, budget, seed)
+def rollout_plan(actor: ActorPolicy, scenario: Scenario, instance: SchedulingInstance, budget: RolloutBudget,
+                 mask: str, seed: int = 0) -> Plan:
+    """The rollout's episode on an embedded, ideal environment of `scenario` under the actor's
+    `mask`, as a plan of `instance` (the scenario's nominal numbers)."""
+    env = make_env(scenario, "embedded", profile="ideal", mask=mask, seed=seed)
+    planner = RolloutPlanner(actor.for_scenario(scenario), env, instance, budget, seed)
     joint, _, greedy = planner.plan()
-    none = env.n_tasks
-    goals = [[None if a == none else a for a in step] for step in joint]
+    goals = [[None if a == env.n_tasks else a for a in step] for step in joint]
     run = simulate_joint_actions(instance, goals)
     return plan_from_run("rollout", run, play_outs=planner.play_outs, greedy_makespan=greedy,
                          budget_reached=planner.play_outs >= budget.max_rollouts)

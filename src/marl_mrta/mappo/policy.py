@@ -31,9 +31,10 @@ SET_ACTOR_FORMAT = "marl_mrta.mappo.actor/2"
 #: is taken (evaluate --policy, execute.launch policy:=, train --init): policies/<name>.pt.
 SHIPPED_POLICIES = ("generalist",)
 
-#: act_team's hook on an in-turn decision: (turn, robot, logits (n_actions,), mask (n_actions,)) ->
-#: the action to take at that turn, or None for the actor's own choice.
-TurnPick = Callable[[int, int, torch.Tensor, torch.Tensor], Optional[int]]
+#: act_team's hook on an in-turn decision: (turn, robot, logits (n_actions,), mask (n_actions,),
+#: claimed (n_tasks,) bool: by the turns before) -> the action to take at that turn, or None for
+#: the actor's own choice.
+TurnPick = Callable[[int, int, torch.Tensor, torch.Tensor, torch.Tensor], Optional[int]]
 
 
 class PolicyFileError(ValueError):
@@ -129,7 +130,7 @@ class ActorPolicy:
                  deterministic: bool = True, pick: Optional[TurnPick] = None) -> Tuple[np.ndarray, torch.Tensor]:
         """One decision of the whole team (robots 0..n-1), in the order the actor was trained
         with: at once, or one after another with the tasks claimed so far (mappo/claims.py).
-        pick(turn, robot, logits, mask) (sequential actors only) sees each turn's distribution and may
+        pick(turn, robot, logits, mask, claimed) (sequential actors only) sees each turn's distribution and may
         return the action instead of the actor's own choice (None: the actor's)."""
         if not self.sequential:
             if pick is not None:
@@ -145,7 +146,7 @@ class ActorPolicy:
             i = int(robot)
             logits, mask_t, hidden_rows[i] = self._logits_of_rows(rows[i:i + 1], mask[None], hidden[i:i + 1], [i],
                                                                   claimed.numpy()[None])
-            chosen = None if pick is None else pick(next(turn), i, logits[0], mask_t[0])
+            chosen = None if pick is None else pick(next(turn), i, logits[0], mask_t[0], claimed > 0)
             return self._pick(logits, mask_t, deterministic)[0] if chosen is None else torch.tensor(chosen)
 
         actions = self.claim_rules.decide_in_turn(env_mask, decide, self.turns_of_rows(rows))
