@@ -13,17 +13,17 @@ from marl_mrta.baselines.settings import RolloutBudget, load_baseline_settings
 from marl_mrta.common.config import ConfigError
 from marl_mrta.common.paths import default_config_path, package_root
 from marl_mrta.env.settings import load_task_settings
-from marl_mrta.evaluation.rollout import rollout_plan
+from marl_mrta.evaluation.rollout import RolloutError, rollout_plan
 from marl_mrta.mappo.policy import load_policy
 from marl_mrta.model.scenario import load_scenario
 
 JOIN = package_root() / "test" / "data" / "scenarios" / "join_2r4t.xml"
 
 
-def planned(path, budget):
+def planned(path, budget, precedence_margin=0.0):
     scenario = load_scenario(path)
     task = load_task_settings()
-    instance = scheduling_instance(scenario, task.min_step, task.goal_timeout)
+    instance = scheduling_instance(scenario, task.min_step, task.goal_timeout, precedence_margin)
     return rollout_plan(load_policy("generalist"), scenario, instance, budget, "finished"), instance
 
 
@@ -91,3 +91,24 @@ def test_tasks_the_precedence_mask_holds_back_reach_lab_3r_optimum():
     exact = solve_exact(instance)
     assert exact.proven_optimal and plan.details["greedy_makespan"] > 1.04 * exact.makespan
     assert plan.makespan == pytest.approx(exact.makespan, abs=1e-6)
+
+
+def test_the_rollout_keeps_a_precedence_margin_the_actor_alone_breaks():
+    """On lab_4r the actor's own episode sends two robots to successors that they reach less than
+    1 s after their predecessors' finish; with evaluate's --precedence-margin 1.0 (real.launch's
+    default) that episode is no plan, and the rollout finds the margin's proven optimum."""
+    lab_4r = package_root() / "scenarios" / "lab_4r.xml"
+    plan, instance = planned(lab_4r, load_baseline_settings().rollout, precedence_margin=1.0)
+    exact = solve_exact(instance)
+    assert exact.proven_optimal
+    assert plan.details["greedy_makespan"] is None       # the actor alone: 25.99 s, 0.23 s of margin
+    assert plan.complete and plan.logic_violations == 0
+    assert plan.instance.precedence_margin == 1.0
+    assert plan.makespan == pytest.approx(exact.makespan, abs=1e-6)   # 31.03 s (the GA: 31.62 s)
+
+
+def test_no_plan_within_the_margin_is_one_line():
+    lab_4r = package_root() / "scenarios" / "lab_4r.xml"
+    with pytest.raises(RolloutError) as error:
+        planned(lab_4r, RolloutBudget(alternatives=3, max_rollouts=1), precedence_margin=1.0)
+    assert "precedence margin of 1 s" in str(error.value) and "\n" not in str(error.value)

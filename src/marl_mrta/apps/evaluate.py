@@ -141,9 +141,12 @@ def rollout_for(args: argparse.Namespace, scenario: Scenario, instance: Scheduli
     except RolloutError as error:
         raise PolicyLoadError(f"--method rollout: {error}") from None
     details = plan.details
+    alone = details["greedy_makespan"]
+    alone_note = f"{alone:.2f} s" if alone is not None else "not complete in order" + (
+        f" with the margin of {instance.precedence_margin:g} s" if instance.precedence_margin else "")
     print(f"  rollout: {details['play_outs']} episodes played out, {plan.makespan:.2f} s (the actor alone "
-          f"{details['greedy_makespan']:.2f} s)" + ("; budget reached, the actor decided the rest"
-                                                    if details["budget_reached"] else ""), file=sys.stderr)
+          f"{alone_note})" + ("; budget reached, the actor decided the rest" if details["budget_reached"] else ""),
+          file=sys.stderr)
     return plan
 
 

@@ -11,6 +11,11 @@ greedy episode. Each play-out replays the episode from its reset (the ideal prof
 nothing, so a replay is the same episode). After `max_rollouts` play-outs the actor decides the
 rest alone.
 
+With a precedence margin (evaluate --precedence-margin, real.launch's default 1 s), episodes are
+scored as the plans they become in the instance's nominal run: an episode with a successor reached
+within the margin of its predecessor's finish is no plan, and among such episodes the one with
+fewer of them leads, so that an actor whose own episode breaks the margin is led to one that keeps it.
+
 The result is a plan (joint actions), executed as the planners' are: on any executor and in ROS
 (evaluate --method rollout --policy P). The robots' own actor nodes (execute.launch) keep deciding
 from the actor alone.
@@ -54,6 +59,7 @@ class _Turn:
 @dataclass
 class _PlayOut:
     makespan: float                     # inf: incomplete or out of precedence order
+    late: float                         # successors reached within the instance's precedence margin (inf: no plan)
     joint_actions: List[List[int]]
     turns: Optional[List[_Turn]]        # the watched step's turns (None: the episode ended before it)
     finished: List[bool]                # the tasks finished before the watched step
@@ -104,9 +110,12 @@ class RolloutPlanner:
             run.apply([None if a == self.none else a for a in joint[-1]])
             output = self.env.step(joint[-1])
             if output.done or output.truncated:
+                # Scored as the plan it becomes: in the instance's nominal run, whose precedence
+                # margin (evaluate --precedence-margin) the environment's rules do not know.
                 record = output.info.episode
                 done = record.complete and record.logic_consistent
-                return _PlayOut(record.makespan if done else math.inf, joint, turns, finished)
+                return _PlayOut(run.elapsed if done else math.inf, run.violations if done else math.inf,
+                                joint, turns, finished)
         raise RuntimeError(f"the rollout's episode did not end within {MAX_STEPS} steps")
 
     def alternatives(self, turn: _Turn, finished: Sequence[bool]) -> List[int]:
@@ -127,11 +136,11 @@ class RolloutPlanner:
         deviations: List[Deviation] = []
         watched = self.play(deviations, watch=0)   # the incumbent, with the turns of the step being decided
         self.play_outs = 1
-        greedy = watched.makespan
+        greedy = watched.makespan if watched.late == 0 else math.inf
         while watched.turns is not None and self.play_outs < self.budget.max_rollouts:
             step: Deviation = {}
             while True:   # one more deviation in this step while one shortens the episode
-                best, chosen = watched.makespan, None
+                best, chosen = watched, None
                 for index, turn in enumerate(watched.turns):
                     if index in step:
                         continue
@@ -139,17 +148,26 @@ class RolloutPlanner:
                         if self.play_outs >= self.budget.max_rollouts:
                             break
                         trial = {**step, index: action}
-                        makespan = self.play(deviations + [trial]).makespan
+                        played = self.play(deviations + [trial])
                         self.play_outs += 1
-                        if makespan < best - 1e-9:
-                            best, chosen = makespan, trial
+                        if _better(played, best):
+                            best, chosen = played, trial
                 if chosen is None:
                     break
                 step = chosen
                 watched = self.play(deviations + [step], watch=len(deviations))   # the turns after the new deviation
             deviations.append(step)
             watched = self.play(deviations, watch=len(deviations))
-        return watched.joint_actions, watched.makespan, greedy
+        return watched.joint_actions, (watched.makespan if watched.late == 0 else math.inf), greedy
+
+
+def _better(played: _PlayOut, incumbent: _PlayOut) -> bool:
+    """Fewer successors within the margin first (without a margin, every complete episode in
+    order has none), then strictly shorter: an actor whose own episode breaks the margin is led
+    towards plans that keep it."""
+    if played.late != incumbent.late:
+        return played.late < incumbent.late
+    return played.makespan < incumbent.makespan - 1e-9
 
 
 def rollout_plan(actor: ActorPolicy, scenario: Scenario, instance: SchedulingInstance, budget: RolloutBudget,
@@ -158,8 +176,14 @@ def rollout_plan(actor: ActorPolicy, scenario: Scenario, instance: SchedulingIns
     `mask`, as a plan of `instance` (the scenario's nominal numbers)."""
     env = make_env(scenario, "embedded", profile="ideal", mask=mask, seed=seed)
     planner = RolloutPlanner(actor.for_scenario(scenario), env, instance, budget, seed)
-    joint, _, greedy = planner.plan()
+    joint, makespan, greedy = planner.plan()
+    if not math.isfinite(makespan):
+        margin = f" with a precedence margin of {instance.precedence_margin:g} s" if instance.precedence_margin else ""
+        raise RolloutError(f"{scenario.source}: no complete plan in precedence order{margin} in {planner.play_outs} "
+                           f"play-outs (the actor's own episode is not one); a larger max_rollouts"
+                           f"{' or a smaller --precedence-margin' if margin else ''} may find one")
     goals = [[None if a == env.n_tasks else a for a in step] for step in joint]
     run = simulate_joint_actions(instance, goals)
-    return plan_from_run("rollout", run, play_outs=planner.play_outs, greedy_makespan=greedy,
+    return plan_from_run("rollout", run, play_outs=planner.play_outs,
+                         greedy_makespan=greedy if math.isfinite(greedy) else None,
                          budget_reached=planner.play_outs >= budget.max_rollouts)

@@ -1,0 +1,43 @@
+"""launch/real.launch, read without starting anything: which episodes node each method gets, and
+what it is handed (the rollout its actor file, which the planners do not take)."""
+import os
+
+import pytest
+
+roslaunch = pytest.importorskip("roslaunch")
+
+REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+
+@pytest.fixture(autouse=True)
+def package_path(monkeypatch):
+    """$(find marl_mrta) resolves to this checkout even without a sourced workspace."""
+    monkeypatch.setenv("ROS_PACKAGE_PATH", REPO + os.pathsep + os.environ.get("ROS_PACKAGE_PATH", ""))
+
+
+def episodes_node(*args):
+    config = roslaunch.config.load_config_default(
+        [(os.path.join(REPO, "launch", "real.launch"), ["roslaunch", "nav:=builtin", *args])], None, verbose=False)
+    nodes = {n.namespace + n.name: n for n in config.nodes}
+    actors = [name for name, node in nodes.items() if node.type == "robot_actor"]
+    runner = nodes.get("/evaluate") or nodes["/rl_manager"]
+    return runner, runner.args.split(), actors
+
+
+def test_the_rollout_plans_from_the_actor_it_is_given_with_the_margin():
+    runner, args, actors = episodes_node("method:=rollout", "policy:=generalist")
+    assert runner.type == "evaluate" and actors == []   # a plan: no actor node on the robots
+    assert args[args.index("--method") + 1] == "rollout"
+    assert args[args.index("--policy") + 1] == "generalist"
+    assert args[args.index("--precedence-margin") + 1] == "1.0"
+
+
+def test_the_planners_get_no_actor_file():
+    runner, args, actors = episodes_node("method:=exact", "policy:=generalist")
+    assert runner.type == "evaluate" and "--policy" not in args and actors == []
+
+
+def test_a_policy_runs_on_the_robots_actor_nodes():
+    runner, args, actors = episodes_node("method:=policy", "policy:=generalist")
+    assert runner.type == "rl_manager" and args[0] == "execute"
+    assert sorted(actors) == ["/tb3_0/robot_actor", "/tb3_1/robot_actor"]
