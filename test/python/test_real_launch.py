@@ -41,3 +41,12 @@ def test_a_policy_runs_on_the_robots_actor_nodes():
     runner, args, actors = episodes_node("method:=policy", "policy:=generalist")
     assert runner.type == "rl_manager" and args[0] == "execute"
     assert sorted(actors) == ["/tb3_0/robot_actor", "/tb3_1/robot_actor"]
+
+
+@pytest.mark.parametrize("method", ["rollout", "policy", "exact,rollout"])
+def test_an_actor_method_without_an_actor_stops_the_launch_before_it_starts_anything(method):
+    """Before, method:=policy without policy:= started the robots' side and waited five minutes
+    for actor nodes that were never started."""
+    with pytest.raises(Exception) as error:
+        episodes_node("method:=" + method)
+    assert "policy:='': method:=" in str(error.value) and "\n" not in str(error.value).strip()

@@ -7,7 +7,7 @@ the task manager then reports the scenario's problem in its one-line FATAL and e
 """
 from __future__ import annotations
 
-from typing import Sequence, Union
+from typing import Optional, Sequence, Union
 
 from marl_mrta.common.config import ConfigError, read_yaml
 from marl_mrta.common.paths import default_config_path, package_root
@@ -115,12 +115,18 @@ def noise_profiles() -> tuple:
         return ("ideal",)
 
 
-def real_choices(**values: str) -> bool:
-    """real.launch's choice arguments checked: True, or a ValueError in one line naming the first bad one."""
+def real_choices(policy: Optional[str] = None, **values: str) -> bool:
+    """real.launch's choice arguments checked: True, or a ValueError in one line naming the first bad one.
+    With `policy` given, a method that acts from an actor (policy, rollout) also needs it non-empty,
+    so that the launch stops before it starts anything."""
     choices = dict(REAL_CHOICES, noise_profile=noise_profiles())
     for name, value in values.items():
         parts = [value] if name != "method" or value == "policy" else value.split(",")
         if not value or any(part not in choices[name] or (name == "method" and len(parts) > 1 and part == "policy")
                             for part in parts):
             raise ValueError(f"real.launch: {name}:='{value}': must be one of {', '.join(choices[name])}")
+    acting = sorted({"policy", "rollout"} & set(values.get("method", "").split(",")))
+    if policy is not None and not policy.strip() and acting:
+        raise ValueError(f"real.launch: policy:='': method:={acting[0]} needs an actor file: policy:=generalist "
+                         f"(the shipped one) or the absolute path of a training run's actor.pt")
     return True
