@@ -272,6 +272,11 @@ def test_set_actor_files_round_trip_and_bad_files_are_one_line(tmp_path):
     (tmp_path / "junk.pt").write_text("not an actor")
     with pytest.raises(PolicyFileError, match="not a readable actor file"):
         load_policy(tmp_path / "junk.pt")
+    # an empty name (a launch's policy:= left out) and a run directory say what they are
+    with pytest.raises(PolicyFileError, match="^policy: empty: give an actor file"):
+        load_policy("")
+    with pytest.raises(PolicyFileError, match="a directory, not an actor file"):
+        load_policy(tmp_path)
 
 
 def test_init_starts_a_run_from_a_set_actor_file(tmp_path, capsys):

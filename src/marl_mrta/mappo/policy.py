@@ -276,7 +276,11 @@ class SetActorPolicy(ActorPolicy):
 
 def read_actor_file(policy: Union[str, Path]) -> Tuple[Path, Dict[str, Any]]:
     """An actor file's path and its contents (either format); `policy` is a path or a shipped name."""
+    if not str(policy).strip():   # Path("") is ".", a directory: the message would name neither
+        raise PolicyFileError("policy: empty: give an actor file (a training run's actor.pt) or generalist")
     path = actor_file_path(policy)
+    if path.is_dir():
+        raise PolicyFileError(f"{path}: a directory, not an actor file (a training run's is its actor.pt)")
     try:
         data = torch.load(path, map_location="cpu", weights_only=True)
     except FileNotFoundError:
