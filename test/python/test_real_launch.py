@@ -24,10 +24,11 @@ def episodes_node(*args):
     return runner, runner.args.split(), actors
 
 
-def test_the_rollout_plans_from_the_actor_it_is_given_with_the_margin():
-    runner, args, actors = episodes_node("method:=rollout", "policy:=generalist")
+@pytest.mark.parametrize("method", ["rollout", "exact,rollout,ga"])
+def test_the_rollout_plans_from_the_actor_it_is_given_with_the_margin(method):
+    runner, args, actors = episodes_node("method:=" + method, "policy:=generalist")
     assert runner.type == "evaluate" and actors == []   # a plan: no actor node on the robots
-    assert args[args.index("--method") + 1] == "rollout"
+    assert args[args.index("--method") + 1] == method
     assert args[args.index("--policy") + 1] == "generalist"
     assert args[args.index("--precedence-margin") + 1] == "1.0"
 
