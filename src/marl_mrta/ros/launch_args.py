@@ -101,9 +101,9 @@ def real_robots(robots: str, scenario: str) -> str:
 
 
 #: real.launch's arguments that take one of a few values (method: policy, or evaluate's methods).
-REAL_CHOICES = {"method": ("policy", "exact", "ga", "auction", "random", "rollout"), "stand_in_processes": ("one", "per_robot"),
-                "nav": ("auto", "builtin", "stock"), "reset": ("start", "current"),
-                "reset_drive": ("one_by_one", "together")}
+REAL_CHOICES = {"method": ("policy", "exact", "ga", "auction", "random", "rollout"),
+                "stand_in_processes": ("one", "per_robot"), "nav": ("auto", "builtin", "stock"),
+                "reset": ("start", "current"), "reset_drive": ("one_by_one", "together")}
 
 
 def noise_profiles() -> tuple:
