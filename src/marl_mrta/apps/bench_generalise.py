@@ -134,9 +134,9 @@ def bench(args: argparse.Namespace, log: Callable[[str], None] = print) -> Dict[
                 "robots": scenario.n_robots, "tasks": scenario.n_tasks, "best": reference.best_makespan,
                 "bound": bound, "proven_optimal": reference.proven_optimal,
                 "zero_shot": ratio(shot["makespan"], bound), "decision_ms": shot["decision_ms"],
-                "rollout": ratio(rolled.makespan if rolled.complete and rolled.logic_violations == 0 else math.inf, bound),
+                "rollout": ratio(rolled.usable_makespan, bound),
                 "rollout_s": rollout_s, "rollout_play_outs": rolled.details["play_outs"],
-                "ga": ratio(ga.makespan if ga.complete and ga.logic_violations == 0 else math.inf, bound)}
+                "ga": ratio(ga.usable_makespan, bound)}
             index = k - len(labs)
             if lab or index < args.finetune:
                 tuned = trained(scenario, "finetune", args.finetune_seconds, 0, str(path), work / f"ft_{k}")

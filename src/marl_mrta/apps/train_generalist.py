@@ -96,11 +96,11 @@ def teacher_plan(scenario: Scenario, settings: BaselineSettings, seed: int = 0) 
     task = load_task_settings()
     instance = scheduling_instance(scenario, task.min_step, task.goal_timeout)
     plans = [solve_ga(instance, settings.ga, seed=seed), solve_auction(instance, settings.auction_objective)]
-    usable = [p for p in plans if p.complete and p.logic_violations == 0 and math.isfinite(p.makespan)]
+    usable = [p for p in plans if p.usable]
     if choose_solver(instance, settings) == "astar":
         upper = min((p.makespan for p in usable), default=None)
         exact = solve_exact(instance, upper_bound=upper, budget=replace(settings.astar, time_limit=TEACHER_EXACT_SECONDS))
-        if exact.complete and exact.logic_violations == 0 and math.isfinite(exact.makespan):
+        if exact.usable:
             usable.append(exact)
     if not usable:
         raise ScenarioError(f"{scenario.source}: no consistent plan for imitation")

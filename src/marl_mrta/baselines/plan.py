@@ -98,6 +98,16 @@ class Plan:
     def complete(self) -> bool:
         return self.instance is not None and sum(len(t) for t in self.robot_tasks) == self.instance.n_tasks
 
+    @property
+    def usable(self) -> bool:
+        """Complete, in precedence order (margin included) and of finite makespan: a plan to run."""
+        return self.complete and self.logic_violations == 0 and math.isfinite(self.makespan)
+
+    @property
+    def usable_makespan(self) -> float:
+        """The makespan of a usable plan, else inf (a failure, in ratios)."""
+        return self.makespan if self.usable else math.inf
+
 
 class NominalRun:
     """Steps an instance with nominal travel times through model/rules.py (no noise, no episode

@@ -110,7 +110,7 @@ def choose_solver(instance: SchedulingInstance, settings: BaselineSettings) -> s
 
 
 def _usable(plan: Optional[Plan]) -> bool:
-    return plan is not None and plan.complete and plan.logic_violations == 0 and math.isfinite(plan.makespan)
+    return plan is not None and plan.usable
 
 
 def solve_reference(instance: SchedulingInstance, settings: Optional[BaselineSettings] = None,

@@ -29,7 +29,7 @@ from typing import Dict, List, Optional, Sequence, Tuple
 import numpy as np
 import torch
 
-from marl_mrta.baselines.plan import NominalRun, Plan, SchedulingInstance, plan_from_run, simulate_joint_actions
+from marl_mrta.baselines.plan import NominalRun, Plan, SchedulingInstance, plan_from_run
 from marl_mrta.baselines.settings import RolloutBudget
 from marl_mrta.env.api import StepOutput, TaskAllocationEnv
 from marl_mrta.env.factory import make_env
@@ -60,9 +60,14 @@ class _Turn:
 class _PlayOut:
     makespan: float                     # inf: incomplete or out of precedence order
     late: float                         # successors reached within the instance's precedence margin (inf: no plan)
-    joint_actions: List[List[int]]
+    run: NominalRun                     # the episode as a plan of the instance
     turns: Optional[List[_Turn]]        # the watched step's turns (None: the episode ended before it)
     finished: List[bool]                # the tasks finished before the watched step
+
+    @property
+    def plan_makespan(self) -> float:
+        """The makespan as a plan: inf when it is none (incomplete, out of order, within the margin)."""
+        return self.makespan if self.late == 0 else math.inf
 
 
 class RolloutPlanner:
@@ -89,7 +94,6 @@ class RolloutPlanner:
         output: StepOutput = self.env.reset(seed=self.seed)
         hidden = self.actor.initial_hidden(self.env.n_agents)
         run = NominalRun(self.instance)                 # the robots' nodes and finished tasks, step by step
-        joint: List[List[int]] = []
         turns: Optional[List[_Turn]] = None
         finished: List[bool] = []
         for step in range(MAX_STEPS):
@@ -106,16 +110,16 @@ class RolloutPlanner:
                 finished = list(run.finished)
             actions, hidden = self.actor.act_team(output.obs, output.action_mask, hidden, pick=pick)
             turns = turns if seen is None else seen
-            joint.append([int(a) for a in np.asarray(actions).reshape(-1)])
-            run.apply([None if a == self.none else a for a in joint[-1]])
-            output = self.env.step(joint[-1])
+            joint = [int(a) for a in np.asarray(actions).reshape(-1)]
+            run.apply([None if a == self.none else a for a in joint])
+            output = self.env.step(joint)
             if output.done or output.truncated:
                 # Scored as the plan it becomes: in the instance's nominal run, whose precedence
                 # margin (evaluate --precedence-margin) the environment's rules do not know.
                 record = output.info.episode
                 done = record.complete and record.logic_consistent
                 return _PlayOut(run.elapsed if done else math.inf, run.violations if done else math.inf,
-                                joint, turns, finished)
+                                run, turns, finished)
         raise RuntimeError(f"the rollout's episode did not end within {MAX_STEPS} steps")
 
     def alternatives(self, turn: _Turn, finished: Sequence[bool]) -> List[int]:
@@ -130,13 +134,12 @@ class RolloutPlanner:
         held.sort(key=lambda t: (legs[self.instance.node(t)], t))
         return own + held[:self.budget.alternatives]
 
-    def plan(self) -> Tuple[List[List[int]], float, float]:
-        """The improved episode's joint actions (none = n_tasks), its makespan, and the actor's
-        greedy makespan."""
+    def plan(self) -> Tuple[_PlayOut, float]:
+        """The improved episode, and the actor's own episode's makespan as a plan (inf: none)."""
         deviations: List[Deviation] = []
         watched = self.play(deviations, watch=0)   # the incumbent, with the turns of the step being decided
         self.play_outs = 1
-        greedy = watched.makespan if watched.late == 0 else math.inf
+        greedy = watched.plan_makespan
         while watched.turns is not None and self.play_outs < self.budget.max_rollouts:
             step: Deviation = {}
             while True:   # one more deviation in this step while one shortens the episode
@@ -158,7 +161,7 @@ class RolloutPlanner:
                 watched = self.play(deviations + [step], watch=len(deviations))   # the turns after the new deviation
             deviations.append(step)
             watched = self.play(deviations, watch=len(deviations))
-        return watched.joint_actions, (watched.makespan if watched.late == 0 else math.inf), greedy
+        return watched, greedy
 
 
 def _better(played: _PlayOut, incumbent: _PlayOut) -> bool:
@@ -176,14 +179,12 @@ def rollout_plan(actor: ActorPolicy, scenario: Scenario, instance: SchedulingIns
     `mask`, as a plan of `instance` (the scenario's nominal numbers)."""
     env = make_env(scenario, "embedded", profile="ideal", mask=mask, seed=seed)
     planner = RolloutPlanner(actor.for_scenario(scenario), env, instance, budget, seed)
-    joint, makespan, greedy = planner.plan()
-    if not math.isfinite(makespan):
+    final, greedy = planner.plan()
+    if not math.isfinite(final.plan_makespan):
         margin = f" with a precedence margin of {instance.precedence_margin:g} s" if instance.precedence_margin else ""
         raise RolloutError(f"{scenario.source}: no complete plan in precedence order{margin} in {planner.play_outs} "
                            f"play-outs (the actor's own episode is not one); a larger max_rollouts"
                            f"{' or a smaller --precedence-margin' if margin else ''} may find one")
-    goals = [[None if a == env.n_tasks else a for a in step] for step in joint]
-    run = simulate_joint_actions(instance, goals)
-    return plan_from_run("rollout", run, play_outs=planner.play_outs,
+    return plan_from_run("rollout", final.run, play_outs=planner.play_outs,
                          greedy_makespan=greedy if math.isfinite(greedy) else None,
                          budget_reached=planner.play_outs >= budget.max_rollouts)
