@@ -26,11 +26,11 @@ def episodes_node(*args):
 
 @pytest.mark.parametrize("method", ["rollout", "exact,rollout,ga"])
 def test_the_rollout_plans_from_the_actor_it_is_given_with_the_margin(method):
-    runner, args, actors = episodes_node("method:=" + method, "policy:=generalist")
+    runner, args, actors = episodes_node("method:=" + method, "policy:=generalist", "precedence_margin:=1.5")
     assert runner.type == "evaluate" and actors == []   # a plan: no actor node on the robots
     assert args[args.index("--method") + 1] == method
     assert args[args.index("--policy") + 1] == "generalist"
-    assert args[args.index("--precedence-margin") + 1] == "1.0"
+    assert args[args.index("--precedence-margin") + 1] == "1.5"
 
 
 def test_the_planners_get_no_actor_file():
@@ -51,3 +51,17 @@ def test_an_actor_method_without_an_actor_stops_the_launch_before_it_starts_anyt
     with pytest.raises(Exception) as error:
         episodes_node("method:=" + method)
     assert "policy:='': method:=" in str(error.value) and "\n" not in str(error.value).strip()
+
+
+def manager_hold_successors(*args):
+    config = roslaunch.config.load_config_default(
+        [(os.path.join(REPO, "launch", "real.launch"), ["roslaunch", "nav:=builtin", *args])], None, verbose=False)
+    return config.params["/rl_task_allocation_manager/hold_successors"].value
+
+
+def test_real_robots_hold_a_successor_reached_early_unless_told_not_to():
+    """The hold keeps the order, so plans need no margin by default (the step rules' optimum)."""
+    assert manager_hold_successors() is True
+    _, args, _ = episodes_node("method:=exact")
+    assert args[args.index("--precedence-margin") + 1] == "0.0"
+    assert manager_hold_successors("hold_successors:=false") is False

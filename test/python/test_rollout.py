@@ -96,7 +96,7 @@ def test_tasks_the_precedence_mask_holds_back_reach_lab_3r_optimum():
 def test_the_rollout_keeps_a_precedence_margin_the_actor_alone_breaks():
     """On lab_4r the actor's own episode sends two robots to successors that they reach less than
     1 s after their predecessors' finish; with evaluate's --precedence-margin 1.0 (real.launch's
-    default) that episode is no plan, and the rollout finds the margin's proven optimum."""
+    precedence_margin:=1.0) that episode is no plan, and the rollout finds the margin's proven optimum."""
     lab_4r = package_root() / "scenarios" / "lab_4r.xml"
     plan, instance = planned(lab_4r, load_baseline_settings().rollout, precedence_margin=1.0)
     exact = solve_exact(instance)

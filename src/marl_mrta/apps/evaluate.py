@@ -66,6 +66,9 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> argparse.Namespace:
                         help="embedded noise profile of config/task_embedded.yaml (default: its `profile`)")
     parser.add_argument("--mask", default=None, choices=MASK_MODES, help="action masks (default: for --method policy the mask the actor was trained with, "
                         "else config/task.yaml)")
+    parser.add_argument("--hold-successors", action="store_true",
+                        help="a robot early at a successor waits for its predecessors (docs/task_allocation.md, "
+                             "Step rules; default: config/task.yaml; --executor ros: the task manager's)")
     parser.add_argument("--policy", default=None,
                         help="actor file for --method policy or rollout (an MLP actor: its scenario; a set actor: any "
                              "scenario), or generalist (the shipped set actor)")
@@ -116,6 +119,8 @@ def make_ros_env(args: argparse.Namespace):
                          f"({env.scenario_path})")
     if args.mask and args.mask != env.settings.mask:
         raise UsageError(f"--mask: {args.mask} differs from the task manager's mask ({env.settings.mask})")
+    if args.hold_successors and not env.settings.hold_successors:
+        raise UsageError("--hold-successors: the task manager runs without it (its hold_successors parameter)")
     if "policy" in args.methods:
         LearnedPolicy.trained_mask(args.policy, env.settings.mask)
     return env
@@ -198,7 +203,7 @@ def evaluate(args: argparse.Namespace) -> int:
         if "policy" in args.methods:
             args.mask = LearnedPolicy.trained_mask(args.policy, args.mask)
         env = make_env(args.scenario or DEFAULT_SCENARIO, args.executor, profile=args.profile, mask=args.mask,
-                       seed=args.seed)
+                       seed=args.seed, hold_successors=True if args.hold_successors else None)
     scenario = env.scenario
     out = output_path(args, scenario.name)
     settings = load_baseline_settings().with_cpsat(args.time_limit, args.workers)
@@ -257,7 +262,7 @@ def evaluate(args: argparse.Namespace) -> int:
         "mode": getattr(env, "mode", "simulation"),
         # ros: the simulator's noise profile, which the episodes ran under
         "profile": env.noise_profile if args.executor == "ros" else args.profile or "default",
-        "mask": env.settings.mask, "episodes": args.episodes,
+        "mask": env.settings.mask, "hold_successors": env.settings.hold_successors, "episodes": args.episodes,
         "seed": args.seed,
         "exact": plan_json(reference.plan, task_ids) if reference is not None else None,
         "reference": reference.as_dict() if reference is not None else None,

@@ -35,6 +35,7 @@ class StepInfo:
     correct_order: List[bool] = field(default_factory=list)     # its attempt respected the precedence
     failure: List[str] = field(default_factory=list)            # why its navigation failed ("" if not)
     finish_order: List[Optional[int]] = field(default_factory=list)    # 1-based finishing position, or None
+    held_time: List[float] = field(default_factory=list)        # s waited at its task for predecessors
     episode: Optional[EpisodeRecord] = None     # the schedule record, on the episode's last step
     abort_reason: str = ""                      # why the episode was aborted ("" if it was not)
 

@@ -26,12 +26,14 @@ def scenario_travel_table(scenario: Scenario, embedded_config: Optional[Union[st
 def make_env(scenario: Union[str, Path, Scenario], executor: Union[str, Executor] = "embedded", *,
              profile: Optional[str] = None, mask: Optional[str] = None, seed: Optional[int] = None,
              reward_config: Optional[Union[str, Path]] = None, task_config: Optional[Union[str, Path]] = None,
-             embedded_config: Optional[Union[str, Path]] = None) -> TaskEnvironment:
+             embedded_config: Optional[Union[str, Path]] = None,
+             hold_successors: Optional[bool] = None) -> TaskEnvironment:
     """An environment on `scenario` (file or loaded Scenario).
 
     executor: "embedded", or an Executor object (e.g. the ROS executor) that moves the robots;
     profile: a noise profile of config/noise_profiles.yaml (default: its `profile`; embedded
-    only); mask: none | finished | logic (default: config/task.yaml); seed: of the first
+    only); mask: none | finished | logic (default: config/task.yaml); hold_successors: the rule
+    of model/rules.py (default: config/task.yaml); seed: of the first
     reset() without a seed. Raises ScenarioError or ConfigError with a one-line message.
     """
     if not isinstance(scenario, Scenario):
@@ -43,6 +45,8 @@ def make_env(scenario: Union[str, Path, Scenario], executor: Union[str, Executor
         if mask not in MASK_MODES:
             raise ConfigError(f"mask: {mask!r} is not one of {', '.join(MASK_MODES)}")
         settings = replace(settings, mask=mask)
+    if hold_successors is not None:
+        settings = replace(settings, hold_successors=hold_successors)
     try:
         reward = RewardConfig.load(scenario.nav_thresholds, reward_config, scenario.reward_overrides)
     except ConfigError as error:

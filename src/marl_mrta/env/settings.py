@@ -20,13 +20,15 @@ class TaskSettings:
     mask: str            # none | finished | logic
     min_step: float      # s, shortest step (the whole step when every robot chose None)
     goal_timeout: float  # s, per goal
+    hold_successors: bool = False   # a robot early at a successor waits for its predecessors (model/rules.py)
 
 
 def load_task_settings(path: Optional[Union[str, Path]] = None) -> TaskSettings:
     root = read_yaml(path if path is not None else default_config_path("task.yaml"))
     settings = TaskSettings(mask=root.choice("mask", list(MASK_MODES)),
                             min_step=root.number("min_step", minimum=1e-3),
-                            goal_timeout=root.number("goal_timeout", minimum=1e-3))
+                            goal_timeout=root.number("goal_timeout", minimum=1e-3),
+                            hold_successors=root.boolean("hold_successors", False))
     root.check_all_used()
     return settings
 

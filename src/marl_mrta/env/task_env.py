@@ -96,7 +96,8 @@ class TaskEnvironment:
         finished = self.finished
         resolution = resolve_step(goals, [r.nav_time for r in robots], [r.reached for r in robots],
                                   [r.collisions for r in robots], finished, self._predecessors,
-                                  self._service, time_limit, self.settings.min_step)
+                                  self._service, time_limit, self.settings.min_step,
+                                  hold_successors=self.settings.hold_successors)
         duration = resolution.duration
         executor.finish_step(duration)
         correct = resolution.correct_order
@@ -154,7 +155,7 @@ class TaskEnvironment:
         done = self.n_finished == self.n_tasks
         truncated = not done and (outcome.aborted or elapsed >= self._timeout - 1e-9)
         info = StepInfo(step_index + 1, elapsed, list(finished), duration, nav, idle, collisions, reached,
-                        finished_task, correct, [r.failure for r in robots], finish_order)
+                        finished_task, correct, [r.failure for r in robots], finish_order, resolution.held)
         if done or truncated:
             self.over = True
             record.makespan = elapsed

@@ -17,8 +17,8 @@ _CATEGORY_COLOURS = ("#4c72b0", "#dd8452", "#55a868", "#8172b3", "#937860", "#da
 
 def plot_gantt(record: EpisodeRecord, categories_by_task, path: Union[str, Path], title: str = "") -> Path:
     """One row per robot: navigation bars coloured by task category (hatched when the trip
-    finished nothing), service time darker, idle time grey, wrong-order finishes outlined red,
-    dashed lines at step ends."""
+    finished nothing), service time darker (with hold_successors, the wait before it too), idle time
+    grey, wrong-order finishes outlined red, dashed lines at step ends."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     categories = sorted(set(categories_by_task))
@@ -62,7 +62,8 @@ def plot_gantt(record: EpisodeRecord, categories_by_task, path: Union[str, Path]
     summary = f"makespan {record.makespan:.1f} s, {record.decision_steps} steps, {state}"
     ax.set_title(f"{title} · {summary}" if title else summary)
     handles = [Patch(facecolor=colour[c], label=f"category {c}") for c in categories]
-    handles += [Patch(facecolor="#cccccc", label="idle"), Patch(facecolor="white", hatch="//", edgecolor="black",
+    handles += [Patch(facecolor="#333333", label="service (and waiting for predecessors)"),
+                Patch(facecolor="#cccccc", label="idle"), Patch(facecolor="white", hatch="//", edgecolor="black",
                                                                  label="trip finishing nothing"),
                 Patch(facecolor="white", edgecolor="red", label="wrong order")]
     ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.25), ncol=len(handles), fontsize=8,

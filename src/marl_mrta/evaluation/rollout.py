@@ -11,7 +11,7 @@ greedy episode. Each play-out replays the episode from its reset (the ideal prof
 nothing, so a replay is the same episode). After `max_rollouts` play-outs the actor decides the
 rest alone.
 
-With a precedence margin (evaluate --precedence-margin, real.launch's default 1 s), episodes are
+With a precedence margin (evaluate --precedence-margin, real.launch's precedence_margin), episodes are
 scored as the plans they become in the instance's nominal run: an episode with a successor reached
 within the margin of its predecessor's finish is no plan, and among such episodes the one with
 fewer of them leads, so that an actor whose own episode breaks the margin is led to one that keeps it.

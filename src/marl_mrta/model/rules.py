@@ -12,6 +12,10 @@ Rules (docs/task_allocation.md, "Step rules"):
   the robot arrived (or, for an attempt that did not arrive, before the attempt ended).
   Planners may ask for more: `order_margin` seconds between the predecessor's finish and the
   arrival, so that their plans stay in order when real legs run late (the environment asks 0).
+- With `hold_successors` (config/task.yaml; real.launch's default), a robot that arrives at a
+  task before a predecessor is finished waits there and serves it from the predecessor's finish:
+  a floor with real precedence never has a task done out of order. If a predecessor is not
+  finished in the step, the robot serves nothing and the task stays open (in correct order).
 - The step lasts until the last robot with a goal has arrived (plus its service time) or
   failed, and at least `min_step` seconds (the whole step when every robot chose None, or
   when a robot was sent to where it already stands). Never beyond the time limit.
@@ -21,7 +25,7 @@ Rules (docs/task_allocation.md, "Step rules"):
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import List, Optional, Sequence, Tuple
+from typing import Dict, List, Optional, Sequence, Tuple
 
 from marl_mrta.common.records import STEP_RECORD
 
@@ -48,6 +52,7 @@ class StepResolution:
     collisions: List[int]            # collision events of each robot in the step
     duration: float                  # s
     finished: List[FinishedTask]     # tasks finished in this step, in order of their finish time
+    held: List[float]                # s each robot waited at its task for predecessors (hold_successors)
 
 
 def _finish_order(task: FinishedTask) -> Tuple[float, int]:
@@ -57,7 +62,8 @@ def _finish_order(task: FinishedTask) -> Tuple[float, int]:
 def resolve_step(goals: Sequence[Optional[int]], nav_times: Sequence[float], reached: Sequence[bool],
                  collisions: Sequence[int], finished_before: Sequence[bool],
                  predecessors: Sequence[Sequence[int]], service_times: Sequence[float],
-                 time_limit: float, min_step: float, order_margin: float = 0.0) -> StepResolution:
+                 time_limit: float, min_step: float, order_margin: float = 0.0,
+                 hold_successors: bool = False) -> StepResolution:
     """Apply the step rules to one joint action and its navigation outcome."""
     n_robots = len(goals)
     # First arrival at each task that is still open.
@@ -68,10 +74,15 @@ def resolve_step(goals: Sequence[Optional[int]], nav_times: Sequence[float], rea
         best = first_robot.get(task)
         if best is None or nav_times[robot] < nav_times[best]:
             first_robot[task] = robot
+    start_at = {task: nav_times[robot] for task, robot in first_robot.items()}   # service start
+    if hold_successors:
+        start_at = _held_starts(start_at, finished_before, predecessors, service_times)
     finish_rel = {}
     finished: List[FinishedTask] = []
     for task, robot in first_robot.items():
-        end = nav_times[robot] + service_times[task]
+        if task not in start_at:
+            continue
+        end = start_at[task] + service_times[task]
         if end <= time_limit:
             finish_rel[task] = end
             finished.append(FinishedTask(task, robot, nav_times[robot], end))
@@ -82,18 +93,28 @@ def resolve_step(goals: Sequence[Optional[int]], nav_times: Sequence[float], rea
     correct_order = [True] * n_robots
     nav = [0.0] * n_robots
     busy = [0.0] * n_robots
+    held = [0.0] * n_robots
     duration = 0.0
     for robot, task in enumerate(goals):
         if task is None:
             continue
         t = nav[robot] = nav_times[robot]
-        for pred in predecessors[task]:
-            if finished_before[pred]:
+        if hold_successors and first_robot.get(task) == robot:
+            # In order by construction: served from its predecessors' finish, or not at all.
+            if task not in finish_rel:
+                busy[robot] = t
+                duration = max(duration, t)
                 continue
-            done_at = finish_rel.get(pred)
-            if done_at is None or not done_at + order_margin < t:
-                correct_order[robot] = False
-                break
+            held[robot] = finish_rel[task] - service_times[task] - t
+            t += held[robot]
+        else:
+            for pred in predecessors[task]:
+                if finished_before[pred]:
+                    continue
+                done_at = finish_rel.get(pred)
+                if done_at is None or not done_at + order_margin < t:
+                    correct_order[robot] = False
+                    break
         if task in finish_rel and first_robot[task] == robot:
             robot_finished[robot] = True
             t += service_times[task]
@@ -103,4 +124,27 @@ def resolve_step(goals: Sequence[Optional[int]], nav_times: Sequence[float], rea
     duration = min(max(duration, min_step), time_limit)
     idle = [duration - b if duration > b else 0.0 for b in busy]
     return StepResolution(list(goals), [bool(r) and g is not None for r, g in zip(reached, goals)], robot_finished,
-                          correct_order, nav, busy, idle, list(collisions), duration, finished)
+                          correct_order, nav, busy, idle, list(collisions), duration, finished, held)
+
+
+def _held_starts(arrivals: Dict[int, float], finished_before: Sequence[bool],
+                 predecessors: Sequence[Sequence[int]], service_times: Sequence[float]) -> Dict[int, float]:
+    """Service starts under hold_successors: at arrival, or at the last predecessor's finish when
+    it finishes later in the step (chains within a step resolve in precedence order). Tasks with
+    a predecessor that does not finish in the step are left out: they are not served."""
+    starts: Dict[int, float] = {}
+    pending = dict(arrivals)
+    while pending:
+        progressed = False
+        for task, arrival in list(pending.items()):
+            open_preds = [p for p in predecessors[task] if not finished_before[p]]
+            if any(p not in starts and p in pending for p in open_preds):
+                continue   # a predecessor's own start is not known yet
+            del pending[task]
+            progressed = True
+            if any(p not in starts for p in open_preds):
+                continue   # a predecessor not reached in this step
+            starts[task] = max([arrival] + [starts[p] + service_times[p] for p in open_preds])
+        if not progressed:
+            break
+    return starts

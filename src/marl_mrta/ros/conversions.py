@@ -82,7 +82,7 @@ def info_to_message(info: StepInfo) -> StepInfoMsg:
         step_duration=info.step_duration, nav_time=list(info.nav_time), idle_time=list(info.idle_time),
         collisions=[int(c) for c in info.collisions], reached=[bool(r) for r in info.reached],
         finished_task=_indices(info.finished_task), correct_order=[bool(c) for c in info.correct_order],
-        failure=list(info.failure), finish_order=_indices(info.finish_order),
+        failure=list(info.failure), finish_order=_indices(info.finish_order), held_time=list(info.held_time),
         has_episode=info.episode is not None, abort_reason=info.abort_reason)
     if info.episode is not None:
         msg.episode = record_to_message(info.episode)
@@ -95,7 +95,7 @@ def info_from_message(msg: StepInfoMsg) -> StepInfo:
         step_duration=msg.step_duration, nav_time=list(msg.nav_time), idle_time=list(msg.idle_time),
         collisions=[int(c) for c in msg.collisions], reached=[bool(r) for r in msg.reached],
         finished_task=_optional_indices(msg.finished_task), correct_order=[bool(c) for c in msg.correct_order],
-        failure=list(msg.failure), finish_order=_optional_indices(msg.finish_order),
+        failure=list(msg.failure), finish_order=_optional_indices(msg.finish_order), held_time=list(msg.held_time),
         episode=record_from_message(msg.episode) if msg.has_episode else None, abort_reason=msg.abort_reason)
 
 

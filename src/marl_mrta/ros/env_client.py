@@ -51,7 +51,8 @@ class RosTaskEnvClient:
         env = rospy.get_param(self.manager + "/env")
         self.scenario: Scenario = load_scenario(env["scenario"])
         self.settings = TaskSettings(mask=env["mask"], min_step=float(env["min_step"]),
-                                     goal_timeout=float(env["goal_timeout"]))
+                                     goal_timeout=float(env["goal_timeout"]),
+                                     hold_successors=bool(env.get("hold_successors", False)))
         self.n_agents = int(env["n_agents"])
         self.n_tasks = self.scenario.n_tasks
         self.n_actions = int(env["n_actions"])

@@ -69,6 +69,10 @@ class RealRobotSettings:
     aborted_episode_file: str = ""      # JSON file for an aborted episode's record ("": none)
 
 
+#: hold_successors as a parameter: a launch file's true/false, or empty for config/task.yaml's.
+HOLD_CHOICES = {"": None, "true": True, "false": False}
+
+
 @dataclass(frozen=True)
 class ManagerSettings:
     scenario: str                  # scenario XML file
@@ -79,6 +83,7 @@ class ManagerSettings:
     executor: RosExecutorSettings
     mode: str = "simulation"       # simulation | real
     real: RealRobotSettings = RealRobotSettings()
+    hold_successors: Optional[bool] = None   # None: config/task.yaml's (model/rules.py)
 
 
 def read_manager_settings(params: Dict[str, Any], namespace: str,
@@ -89,6 +94,8 @@ def read_manager_settings(params: Dict[str, Any], namespace: str,
                           f"(roslaunch marl_mrta task_manager.launch scenario:=...)")
     values = dict(read_yaml(defaults_file or default_config_path("task_manager.yaml")).data)
     values.update({k: v for k, v in params.items() if k not in OUTPUT_PARAMETERS})
+    if isinstance(values.get("hold_successors"), bool):   # a launch file's true/false arrives as a bool
+        values["hold_successors"] = str(values["hold_successors"]).lower()
     p = node_parameters(values, namespace)
     scenario = p.string("scenario", allow_empty=False)
     mask = p.string("mask")
@@ -122,9 +129,13 @@ def read_manager_settings(params: Dict[str, Any], namespace: str,
                              reset_timeout=p.number("reset_timeout", above=0.0),
                              stop_hold=p.number("stop_hold", minimum=0.0),
                              aborted_episode_file=p.string("aborted_episode_file"))
+    hold = p.string("hold_successors")
+    if hold not in HOLD_CHOICES:
+        raise p.fail("hold_successors", f"{hold!r}: expected true, false or empty (config/task.yaml's)")
     settings = ManagerSettings(scenario=scenario, mask=mask or None, task_config=p.string("task_config") or None,
                                reward_config=p.string("reward_config") or None,
                                marker_period=p.number("marker_period", minimum=0.0), executor=executor,
-                               mode=mode, real=real)
+                               mode=mode, real=real,
+                               hold_successors=HOLD_CHOICES[hold])
     p.check_all_used(known=[k for k in values if k in p.used])
     return settings

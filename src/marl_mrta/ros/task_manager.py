@@ -46,7 +46,8 @@ class TaskManagerNode:
                          else RosExecutor(self.scenario, executor_settings))
         self.real_services: Optional[RealModeServices] = None
         self.env = make_env(self.scenario, executor=self.executor, mask=settings.mask,
-                            task_config=settings.task_config, reward_config=settings.reward_config)
+                            task_config=settings.task_config, reward_config=settings.reward_config,
+                            hold_successors=settings.hold_successors)
         self.robot_ns = self.executor.namespaces
         self._lock = threading.Lock()
         self._episode_running = False
@@ -73,7 +74,7 @@ class TaskManagerNode:
             "scenario": str(self.scenario.source.resolve()), "robots": self.robot_ns,
             "n_agents": env.n_agents, "n_actions": env.n_actions, "obs_dim": env.obs_dim,
             "state_dim": env.state_dim, "mask": env.settings.mask, "min_step": env.settings.min_step,
-            "goal_timeout": env.settings.goal_timeout})
+            "goal_timeout": env.settings.goal_timeout, "hold_successors": env.settings.hold_successors})
         rospy.Service("~reset", TaskReset, self._on_reset)
         rospy.Service("~step", TaskStep, self._on_step)
         self._publish_markers()
@@ -177,6 +178,14 @@ class TaskManagerNode:
                                                  order=int(order), logic_correct=bool(info.correct_order[i])))
         self.pub_idle.publish(IdleTime(stamp=now, step=int(info.step), robots=self.robot_ns,
                                        idle_time=[float(t) for t in info.idle_time]))
+        if self.env.settings.hold_successors:   # why a robot stood at its task
+            for i, goal in enumerate(self._assigned):
+                if goal is not None and info.reached[i] and not info.finished[goal]:
+                    rospy.loginfo("%s at %s: a predecessor is not finished; the task stays open", self.robot_ns[i],
+                                  self.scenario.tasks[goal].id)
+                elif info.held_time[i] > 0.0:
+                    rospy.loginfo("%s waited %.2f s at %s for its predecessors", self.robot_ns[i], info.held_time[i],
+                                  self.scenario.tasks[goal].id)
         self._assigned = [None] * self.scenario.n_robots
         self._publish_markers()
 
