@@ -74,15 +74,16 @@ def resolve_step(goals: Sequence[Optional[int]], nav_times: Sequence[float], rea
         best = first_robot.get(task)
         if best is None or nav_times[robot] < nav_times[best]:
             first_robot[task] = robot
-    start_at = {task: nav_times[robot] for task, robot in first_robot.items()}   # service start
-    if hold_successors:
-        start_at = _held_starts(start_at, finished_before, predecessors, service_times)
+    # Service starts: the arrival, or with hold_successors the predecessors' finish (absent: not served).
+    held_starts = (_held_starts({task: nav_times[robot] for task, robot in first_robot.items()}, finished_before,
+                                predecessors, service_times) if hold_successors else None)
     finish_rel = {}
     finished: List[FinishedTask] = []
     for task, robot in first_robot.items():
-        if task not in start_at:
+        start = nav_times[robot] if held_starts is None else held_starts.get(task)
+        if start is None:
             continue
-        end = start_at[task] + service_times[task]
+        end = start + service_times[task]
         if end <= time_limit:
             finish_rel[task] = end
             finished.append(FinishedTask(task, robot, nav_times[robot], end))
@@ -101,12 +102,9 @@ def resolve_step(goals: Sequence[Optional[int]], nav_times: Sequence[float], rea
         t = nav[robot] = nav_times[robot]
         if hold_successors and first_robot.get(task) == robot:
             # In order by construction: served from its predecessors' finish, or not at all.
-            if task not in finish_rel:
-                busy[robot] = t
-                duration = max(duration, t)
-                continue
-            held[robot] = finish_rel[task] - service_times[task] - t
-            t += held[robot]
+            if task in finish_rel:
+                held[robot] = finish_rel[task] - service_times[task] - t
+                t += held[robot]
         else:
             for pred in predecessors[task]:
                 if finished_before[pred]:
