@@ -44,6 +44,23 @@ def test_a_policy_runs_on_the_robots_actor_nodes():
     assert sorted(actors) == ["/tb3_0/robot_actor", "/tb3_1/robot_actor"]
 
 
+def test_a_set_actors_nodes_get_the_scenario_and_the_generalist_its_mask():
+    """Before, a set actor (the generalist, or one fine-tuned from it) on real.launch's actor nodes
+    stopped the launch: "scenario: missing: a set actor needs the scenario file"."""
+    scenario = os.path.join(REPO, "scenarios", "lab_2r.xml")
+    config = roslaunch.config.load_config_default(
+        [(os.path.join(REPO, "launch", "real.launch"),
+          ["roslaunch", "nav:=builtin", "method:=policy", "policy:=generalist", "scenario:=" + scenario])],
+        None, verbose=False)
+    for robot in ("tb3_0", "tb3_1"):
+        assert config.params[f"/{robot}/robot_actor/scenario"].value == scenario
+    assert config.params["/rl_task_allocation_manager/mask"].value == "finished"
+    config = roslaunch.config.load_config_default(
+        [(os.path.join(REPO, "launch", "real.launch"),
+          ["roslaunch", "nav:=builtin", "method:=policy", "policy:=/tmp/actor.pt"])], None, verbose=False)
+    assert config.params["/rl_task_allocation_manager/mask"].value == "logic"   # the tuned preset's
+
+
 @pytest.mark.parametrize("method", ["rollout", "policy", "exact,rollout"])
 def test_an_actor_method_without_an_actor_stops_the_launch_before_it_starts_anything(method):
     """Before, method:=policy without policy:= started the robots' side and waited five minutes
