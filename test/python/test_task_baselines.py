@@ -48,7 +48,7 @@ def random_instance(rng: random.Random, n_robots: int, n_tasks: int, whole_secon
 def scalar_step(inst, finished, positions, goals):
     nav = [0.0 if g is None else inst.travel_rows[positions[r]][inst.n_robots + g] for r, g in enumerate(goals)]
     return resolve_step(goals, nav, [g is not None for g in goals], [0] * len(goals), finished,
-                        inst.predecessors, inst.service, math.inf, inst.min_step)
+                        inst.predecessors, inst.service, math.inf, inst.min_step, hold_successors=inst.hold_successors)
 
 
 def one_robot_per_goal(goals) -> bool:
@@ -59,7 +59,8 @@ def one_robot_per_goal(goals) -> bool:
 def brute_force_makespan(inst: SchedulingInstance) -> float:
     """Every sequence of joint actions (all-None left out: it changes nothing but the clock; so
     are those sending two robots to one goal, which plans never do),
-    stepped through model/rules.py; a sequence is dropped when it finishes a task out of order;
+    stepped through model/rules.py (with the instance's hold_successors); a sequence is dropped
+    when it finishes a task out of order;
     a path is cut when it reaches a state already reached at least as early, or costs more
     than the best complete sequence so far."""
     joint = [list(a) for a in itertools.product(list(range(inst.n_tasks)) + [None], repeat=inst.n_robots)

@@ -23,7 +23,7 @@ from typing import Any, Dict, Optional, Sequence
 
 from marl_mrta.baselines.auction import solve_auction
 from marl_mrta.baselines.ga import solve_ga
-from marl_mrta.baselines.plan import Plan, SchedulingInstance, simulate_joint_actions
+from marl_mrta.baselines.plan import Plan, SchedulingInstance, simulate_joint_actions, under_either_rules
 from marl_mrta.baselines.random_policy import RandomPolicy
 from marl_mrta.baselines.reference import Reference, scheduling_instance, solve_reference
 from marl_mrta.baselines.settings import load_baseline_settings
@@ -67,8 +67,9 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> argparse.Namespace:
     parser.add_argument("--mask", default=None, choices=MASK_MODES, help="action masks (default: for --method policy the mask the actor was trained with, "
                         "else config/task.yaml)")
     parser.add_argument("--hold-successors", action="store_true",
-                        help="a robot early at a successor waits for its predecessors (docs/task_allocation.md, "
-                             "Step rules; default: config/task.yaml; --executor ros: the task manager's)")
+                        help="a robot early at a successor waits for its predecessors, and the plans are made for "
+                             "it (docs/task_allocation.md, Step rules; default: config/task.yaml; --executor ros: the "
+                             "task manager's)")
     parser.add_argument("--policy", default=None,
                         help="actor file for --method policy or rollout (an MLP actor: its scenario; a set actor: any "
                              "scenario), or generalist (the shipped set actor)")
@@ -128,9 +129,9 @@ def make_ros_env(args: argparse.Namespace):
 
 def plan_for(method: str, instance: SchedulingInstance, settings, seed: int) -> Plan:
     if method == "ga":
-        return solve_ga(instance, settings.ga, seed=seed)
+        return under_either_rules(lambda inst: solve_ga(inst, settings.ga, seed=seed), instance)
     if method == "auction":
-        return solve_auction(instance, settings.auction_objective)
+        return under_either_rules(lambda inst: solve_auction(inst, settings.auction_objective), instance)
     raise ValueError(method)
 
 
@@ -208,7 +209,9 @@ def evaluate(args: argparse.Namespace) -> int:
     out = output_path(args, scenario.name)
     settings = load_baseline_settings().with_cpsat(args.time_limit, args.workers)
     margin = settings.precedence_margin if args.precedence_margin is None else args.precedence_margin
-    instance = scheduling_instance(scenario, env.settings.min_step, env.settings.goal_timeout, margin)
+    # Plans for the rules the episodes run under: with the hold, robots may be sent ahead to wait.
+    instance = scheduling_instance(scenario, env.settings.min_step, env.settings.goal_timeout, margin,
+                                   env.settings.hold_successors)
     task_ids = [t.id for t in scenario.tasks]
     plans: Dict[str, Plan] = {m: plan_for(m, instance, settings, args.seed) for m in args.methods if m in ("ga", "auction")}
     if "rollout" in args.methods:

@@ -69,7 +69,8 @@ def execute(args: argparse.Namespace, log: Callable[[str], None]) -> Dict:
 
     exact_makespan = None
     if not args.no_exact:
-        exact, _ = scenario_reference(env.scenario, env.settings.min_step, goal_timeout=env.settings.goal_timeout)
+        exact, _ = scenario_reference(env.scenario, env.settings.min_step, goal_timeout=env.settings.goal_timeout,
+                                      hold_successors=env.settings.hold_successors)
         exact_makespan = exact.makespan if exact.proven_optimal else None
 
     policy = DecentralisedPolicy(env.n_agents, links.send, board, args.choice_timeout, stop=rospy.is_shutdown,

@@ -8,7 +8,10 @@ plan asks for it (plan.SchedulingInstance). Its cost is the
 step duration of model/rules.py with nominal travel times; moves that would finish a task
 before one of its predecessors are excluded, since the goal is a complete, logic-consistent
 episode, and so are moves with a leg beyond the goal timeout (it fails: the robot stays and the
-step only gets longer). The minimum makespan is the cheapest path to "all finished".
+step only gets longer). With the instance's hold_successors every move is in order: a robot
+reaching a task early waits for its predecessors, or stands there unserved until a later step
+(the state's node of that robot), as model/rules.py rules. The minimum makespan is the cheapest
+path to "all finished".
 
 Search. A* with an admissible heuristic, re-opening a state whenever a cheaper path to it is
 found, so the first goal state taken from the queue is optimal; the proof is the search
@@ -98,6 +101,8 @@ class BatchedRules:
         self.min_step = instance.min_step
         self.margin = instance.precedence_margin
         self.goal_timeout = instance.goal_timeout
+        self.hold = instance.hold_successors
+        self.order = topological_order([list(p) for p in instance.predecessors])
 
     def evaluate(self, done: np.ndarray, pos: np.ndarray):
         """For every joint action: valid flag, step duration, finished-after mask, new positions."""
@@ -109,6 +114,8 @@ class BatchedRules:
         first_arrival = arrivals.min(axis=1)                                   # (B, n_t)
         finisher = arrivals.argmin(axis=1)                                     # lowest index on ties
         newly = np.isfinite(first_arrival) & ~done[None, :]
+        if self.hold:
+            return self._evaluate_hold(done, pos, nav, first_arrival, finisher, newly)
         finish_rel = first_arrival + self.service[None, :]
         # Task j's finisher is in order if each predecessor p was finished before this step,
         # or in this step strictly before j's arrival (by the instance's margin).
@@ -122,6 +129,25 @@ class BatchedRules:
         new_done = done[None, :] | newly
         return valid, duration, new_done, new_pos
 
+    def _evaluate_hold(self, done, pos, nav, first_arrival, finisher, newly):
+        """evaluate() under hold_successors: a task reached in the step is served from its arrival
+        or its open predecessors' finish in the step, whichever is later (in precedence order, so
+        chains within a step resolve), and not at all when one of them is not finished in it; the
+        robot then stands on its goal. Every move is in order."""
+        finish = np.full(first_arrival.shape, np.inf)                         # (B, n_t), inf: not served
+        for j in self.order:
+            start = np.where(newly[:, j], first_arrival[:, j], np.inf)
+            for p in np.nonzero(self.pred[j] & ~done)[0]:
+                start = np.maximum(start, finish[:, p])
+            finish[:, j] = start + self.service[j]
+        served = np.isfinite(finish)
+        valid = (nav <= self.goal_timeout).all(axis=1)
+        finisher_mask = self.onehot & served[:, None, :] & (finisher[:, None, :] == self.robot_index[None, :, None])
+        busy = np.maximum(nav, np.where(finisher_mask, finish[:, None, :], 0.0).max(axis=2))
+        duration = np.maximum(busy.max(axis=1), self.min_step)
+        new_pos = np.where(self.has_goal, self.n_r + self.actions, pos[None, :])
+        return valid, duration, done[None, :] | served, new_pos
+
 
 class _Bounds:
     """Admissible lower bounds on the remaining makespan (see the module docstring)."""
@@ -131,7 +157,9 @@ class _Bounds:
         self.to_task = instance.chain_times()[:, n_r:]                       # (nodes, n_t)
         incoming = np.asarray(instance.travel, dtype=float)[:, n_r:].copy()
         incoming[incoming > instance.goal_timeout] = np.inf
-        incoming[n_r + np.arange(n_t), np.arange(n_t)] = np.inf               # a task's leg comes from elsewhere
+        if not instance.hold_successors:
+            # A task's leg comes from elsewhere; with the hold a robot may already stand there unserved.
+            incoming[n_r + np.arange(n_t), np.arange(n_t)] = np.inf
         self.min_incoming = incoming.min(axis=0) + np.asarray(instance.service)
         self.service = np.asarray(instance.service, dtype=float)
         self.preds = [list(p) for p in instance.predecessors]

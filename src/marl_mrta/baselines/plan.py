@@ -9,8 +9,9 @@ from __future__ import annotations
 
 import heapq
 import math
+import dataclasses
 from dataclasses import dataclass, field
-from typing import Any, Dict, List, Optional, Sequence, Tuple
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -28,6 +29,10 @@ class SchedulingInstance:
     precedence_margin: in plans, a task finished in the same step as a predecessor is reached
     at least this long after the predecessor's finish (the rules ask only "after"), so that the
     plan stays in order when real legs run late against each other (config/task_baselines.yaml).
+    hold_successors: plans for the step rules' hold (model/rules.py), where the task manager runs
+    it: a robot may be sent to a task whose predecessors finish later in the step (it waits
+    there and serves it after them) or in a later step (it stands there unserved until then),
+    and the margin is not needed. Every plan of the paper's rules keeps its makespan under it.
     """
 
     n_robots: int
@@ -39,6 +44,7 @@ class SchedulingInstance:
     task_ids: Tuple[str, ...] = ()
     goal_timeout: float = INFINITE_TIME
     precedence_margin: float = 0.0              # s
+    hold_successors: bool = False
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "travel_rows", np.asarray(self.travel, dtype=float).tolist())
@@ -74,10 +80,11 @@ class SchedulingInstance:
 
     @staticmethod
     def from_scenario(scenario, table, min_step: float, goal_timeout: float = INFINITE_TIME,
-                      precedence_margin: float = 0.0) -> "SchedulingInstance":
+                      precedence_margin: float = 0.0, hold_successors: bool = False) -> "SchedulingInstance":
         return SchedulingInstance(scenario.n_robots, scenario.n_tasks, np.array(table.nominal_time),
                                   tuple(t.service_time for t in scenario.tasks), tuple(scenario.predecessors),
-                                  min_step, tuple(t.id for t in scenario.tasks), goal_timeout, precedence_margin)
+                                  min_step, tuple(t.id for t in scenario.tasks), goal_timeout, precedence_margin,
+                                  hold_successors)
 
 
 @dataclass
@@ -133,7 +140,8 @@ class NominalRun:
         reached = [g is not None and leg <= inst.goal_timeout for g, leg in zip(goals, legs)]
         nav = [leg if ok or g is None else inst.goal_timeout for g, leg, ok in zip(goals, legs, reached)]
         return resolve_step(goals, nav, reached, [0] * len(goals), self.finished,
-                            inst.predecessors, inst.service, INFINITE_TIME, inst.min_step, inst.precedence_margin)
+                            inst.predecessors, inst.service, INFINITE_TIME, inst.min_step, inst.precedence_margin,
+                            inst.hold_successors)
 
     def apply(self, goals: Sequence[Optional[int]]) -> StepResolution:
         resolution = self.preview(goals)
@@ -282,3 +290,14 @@ def decode_task_lists(instance: SchedulingInstance, robot_lists: Sequence[Sequen
 def plan_from_run(method: str, run: NominalRun, **details: Any) -> Plan:
     return Plan(method, run.robot_tasks, run.joint_actions, run.elapsed, run.violations, details=dict(details),
                 instance=run.instance)
+
+
+def under_either_rules(solve: Callable[[SchedulingInstance], Plan], instance: SchedulingInstance) -> Plan:
+    """A heuristic's plan for the instance; with the hold, the shorter of its plans under the hold
+    and under the paper's rules, which keeps its makespan under the hold: the hold widens the
+    search, and a heuristic does not always find the better plans in the wider one."""
+    plan = solve(instance)
+    if not instance.hold_successors:
+        return plan
+    paper = solve(dataclasses.replace(instance, hold_successors=False))
+    return dataclasses.replace(paper, instance=instance) if paper.usable_makespan < plan.usable_makespan else plan

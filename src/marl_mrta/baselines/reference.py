@@ -14,6 +14,10 @@ finds the best known plan under the step rules and a proven lower bound on the o
   makespan caps on the stepwise relaxation proven infeasible raise the bound, within one more
   time limit for all caps (probing.py; the schedules found within caps are candidate plans).
 
+With the instance's hold_successors (the episodes run under the hold) the A* searches the hold's
+rules; where CP-SAT serves, its models are of the paper's rules, so their plan competes (it keeps
+its makespan under the hold) and only the root bound is kept.
+
 The auction's plan is the first upper bound, and plans of other methods passed in compete for
 the best known. Proven optimal means the gap between the best plan and the bound is 0 (within
 GAP_TOLERANCE). Training, evaluation, execution and the benchmarks all take the reference from
@@ -21,6 +25,7 @@ here.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass, field
@@ -28,7 +33,8 @@ from typing import Dict, List, Optional, Sequence, Tuple
 
 from marl_mrta.baselines.auction import solve_auction
 from marl_mrta.baselines.exact import batch_size, refusal, root_lower_bound, solve_exact
-from marl_mrta.baselines.plan import INFINITE_TIME, Plan, SchedulingInstance, decode_task_lists, plan_from_run
+from marl_mrta.baselines.plan import (INFINITE_TIME, Plan, SchedulingInstance, decode_task_lists, plan_from_run,
+                                     under_either_rules)
 from marl_mrta.baselines.probing import probe_lower_bound
 from marl_mrta.baselines.relaxation import solve_relaxation
 from marl_mrta.baselines.settings import BaselineSettings, load_baseline_settings
@@ -85,12 +91,12 @@ class Reference:
 
 
 def scheduling_instance(scenario: Scenario, min_step: float, goal_timeout: float = INFINITE_TIME,
-                        precedence_margin: float = 0.0) -> SchedulingInstance:
+                        precedence_margin: float = 0.0, hold_successors: bool = False) -> SchedulingInstance:
     """The scenario in nominal numbers: plans always come from the nominal travel times.
     ScenarioError naming the first task no robot can reach (every way to its goal, over other
     goals, has a leg beyond the goal timeout), so that no plan could ever finish it."""
     instance = SchedulingInstance.from_scenario(scenario, scenario_travel_table(scenario), min_step, goal_timeout,
-                                                precedence_margin)
+                                                precedence_margin, hold_successors)
     unreachable = instance.unreachable_tasks()
     if unreachable:
         task = scenario.tasks[unreachable[0]]
@@ -121,7 +127,7 @@ def solve_reference(instance: SchedulingInstance, settings: Optional[BaselineSet
     solver = choose_solver(instance, settings)
     log: List[str] = []
     plans: List[Tuple[Plan, str]] = [(p, p.method) for p in candidates if _usable(p)]
-    auction = solve_auction(instance, settings.auction_objective)
+    auction = under_either_rules(lambda inst: solve_auction(inst, settings.auction_objective), instance)
     if _usable(auction):
         plans.append((auction, "auction"))
     bounds: List[Tuple[float, str]] = [(root_lower_bound(instance), "root bound")]
@@ -144,7 +150,16 @@ def solve_reference(instance: SchedulingInstance, settings: Optional[BaselineSet
             bounds.append((plan.details["lower_bound"], "astar"))
             astar_done = not plan.details["status"].startswith("A* stopped")
             log.append(f"{plan.details['status']}; lower bound {plan.details['lower_bound']:.2f} s")
-    if not astar_done:
+    if not astar_done and instance.hold_successors:
+        # The CP-SAT models are of the paper's rules, under which a robot cannot wait for a
+        # predecessor: their plans keep their makespans under the hold, their bounds do not hold.
+        paper = solve_reference(dataclasses.replace(instance, hold_successors=False),
+                                dataclasses.replace(settings, astar_max_tasks=0))
+        log.extend(f"paper's rules: {line}" for line in paper.log)
+        log.append("hold_successors: CP-SAT's plan of the paper's rules competes; its bounds are not kept")
+        if _usable(paper.plan):
+            plans.append((paper.plan, f"{paper.best_source} (paper's rules)"))
+    elif not astar_done:
         solved = False
         stepwise_reached = math.inf      # the makespan of a stepwise schedule found
         for kind in ("asynchronous", "synchronous", "stepwise"):
@@ -201,7 +216,8 @@ def exact_reference(instance: SchedulingInstance, settings: Optional[BaselineSet
 
 
 def scenario_reference(scenario: Scenario, min_step: float, settings: Optional[BaselineSettings] = None,
-                       goal_timeout: float = INFINITE_TIME) -> Tuple[Plan, SchedulingInstance]:
+                       goal_timeout: float = INFINITE_TIME, hold_successors: bool = False
+                       ) -> Tuple[Plan, SchedulingInstance]:
     """exact_reference of a scenario, with the instance it was solved on."""
-    instance = scheduling_instance(scenario, min_step, goal_timeout)
+    instance = scheduling_instance(scenario, min_step, goal_timeout, hold_successors=hold_successors)
     return exact_reference(instance, settings), instance

@@ -177,7 +177,8 @@ def rollout_plan(actor: ActorPolicy, scenario: Scenario, instance: SchedulingIns
                  mask: str, seed: int = 0) -> Plan:
     """The rollout's episode on an embedded, ideal environment of `scenario` under the actor's
     `mask`, as a plan of `instance` (the scenario's nominal numbers)."""
-    env = make_env(scenario, "embedded", profile="ideal", mask=mask, seed=seed)
+    # The play-outs run under the instance's rules, so that the environment and the nominal run agree.
+    env = make_env(scenario, "embedded", profile="ideal", mask=mask, seed=seed, hold_successors=instance.hold_successors)
     planner = RolloutPlanner(actor.for_scenario(scenario), env, instance, budget, seed)
     final, greedy = planner.plan()
     if not math.isfinite(final.plan_makespan):

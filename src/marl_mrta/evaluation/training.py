@@ -58,7 +58,7 @@ def offer_teacher_plan(runner: Runner, log: Callable[[str], None] = print) -> No
     scenario = runner.replay_env()[0].scenario   # built once; self-imitation replays in it
     started = time.perf_counter()
     task = load_task_settings()
-    instance = scheduling_instance(scenario, task.min_step, task.goal_timeout)
+    instance = scheduling_instance(scenario, task.min_step, task.goal_timeout, hold_successors=task.hold_successors)
     if runner.config.teacher == "reference":
         plan = solve_reference(instance, load_baseline_settings()).plan
     else:
