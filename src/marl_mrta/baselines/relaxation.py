@@ -27,7 +27,8 @@ may pass over any goal), and a task's arrival no earlier than its predecessors' 
 
 Every plan under the step rules gives a schedule of the asynchronous and the synchronous one
 (its finishers' routes, with arrivals at least as late as the relaxation asks and predecessors
-finished strictly before). For the stepwise one, number the plan's steps that finish a task in
+finished strictly before). Under hold_successors only of the asynchronous one: a robot that waits
+at a task for its predecessors is scheduled to arrive at its service start. For the stepwise one, number the plan's steps that finish a task in
 order, with their real starts and ends: a finisher arrives at begin + the leg from the node it
 stands on, its start or a goal it was sent to before; a goal sent to while open is finished in
 that step by the first to arrive, so it is of a task finished in an earlier step; between its
