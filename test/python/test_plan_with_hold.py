@@ -136,3 +136,38 @@ def test_the_bound_kept_under_the_hold_is_below_the_holds_optimum(case):
     reference = solve_reference(inst, settings)
     optimum = solve_exact(inst).makespan
     assert reference.lower_bound <= optimum + 1e-6 <= reference.plan.makespan + 2e-6
+
+
+def test_mappo_trains_under_the_hold_and_its_actor_sends_a_robot_ahead(tmp_path, capsys):
+    """`--set hold_successors=true`: the run's environments hold, and the teacher plans for it
+    (here the reference: lab_3r's 34.81 s, in which R2 waits at B2). Without the hold the same
+    schedule would finish B2 before A2; the kept actor runs it in order under evaluate
+    --hold-successors."""
+    from marl_mrta.apps.evaluate import main as evaluate_main
+    from marl_mrta.apps.train import main as train_main
+    run = tmp_path / "run"
+    assert train_main(["--scenario", str(ROOT / "scenarios" / "lab_3r.xml"), "--seed", "0", "--set",
+                       "total_env_steps=1200", "--set", "teacher=reference", "--set", "hold_successors=true",
+                       "--out", str(run)]) == 0
+    assert "a schedule of 34.81 s offered" in capsys.readouterr().out
+    out = tmp_path / "policy.json"
+    assert evaluate_main(["--method", "policy", "--policy", str(run / "actor.pt"), "--scenario",
+                          str(ROOT / "scenarios" / "lab_3r.xml"), "--episodes", "1", "--quiet", "--hold-successors",
+                          "--out", str(out)]) == 0
+    summary = json.loads(out.read_text())["results"][0]["summary"]
+    assert summary["makespan_mean"] == pytest.approx(34.81, abs=0.01) and summary["logic_consistent_pct"] == 100.0
+
+
+def test_the_ros_backend_refuses_managers_whose_hold_differs_from_the_settings():
+    """A run trained for the hold on managers without it (or the other way) would learn other rules."""
+    from types import SimpleNamespace
+    pytest.importorskip("rospy")
+    from marl_mrta.mappo.config import MappoConfig
+    from marl_mrta.mappo.runner import RunError
+    from marl_mrta.ros.arena_pool import check_manager
+    scenario = (ROOT / "scenarios" / "lab_2r.xml").resolve()
+    manager = SimpleNamespace(manager="/arena_0/rl_task_allocation_manager", scenario_path=scenario,
+                              settings=SimpleNamespace(mask="logic", hold_successors=False))
+    check_manager(manager, manager, MappoConfig(action_mask="logic"), str(scenario))
+    with pytest.raises(RunError, match="hold_successors: the manager's is False, the settings train with True"):
+        check_manager(manager, manager, MappoConfig(action_mask="logic", hold_successors=True), str(scenario))

@@ -7,6 +7,7 @@ import time
 from typing import Callable, List, Sequence
 
 from marl_mrta.baselines.ga import solve_ga
+from marl_mrta.baselines.plan import under_either_rules
 from marl_mrta.baselines.reference import scheduling_instance, solve_reference
 from marl_mrta.baselines.settings import load_baseline_settings
 from marl_mrta.env.api import StepOutput, TaskAllocationEnv
@@ -58,11 +59,12 @@ def offer_teacher_plan(runner: Runner, log: Callable[[str], None] = print) -> No
     scenario = runner.replay_env()[0].scenario   # built once; self-imitation replays in it
     started = time.perf_counter()
     task = load_task_settings()
-    instance = scheduling_instance(scenario, task.min_step, task.goal_timeout, hold_successors=task.hold_successors)
+    instance = scheduling_instance(scenario, task.min_step, task.goal_timeout,
+                                   hold_successors=runner.config.hold_successors)
     if runner.config.teacher == "reference":
         plan = solve_reference(instance, load_baseline_settings()).plan
     else:
-        plan = solve_ga(instance, load_baseline_settings().ga, seed=runner.seed)
+        plan = under_either_rules(lambda inst: solve_ga(inst, load_baseline_settings().ga, seed=runner.seed), instance)
     seconds = time.perf_counter() - started
     runner.wall_time += seconds   # planning is part of the run's training time
     if not (plan.complete and plan.logic_violations == 0):

@@ -67,6 +67,9 @@ class MappoConfig:
                               "the robot with the shortest leg to a ready task (actor: set; env/observation.py)",
                               choices=TURN_ORDERS)
     noise_profile: str = setting("ideal", "embedded executor noise profile, a name in config/noise_profiles.yaml")
+    hold_successors: bool = setting(False, "train under the step rules' hold (real.launch's default): a robot early at "
+                                    "a successor waits for its predecessors instead of doing it out of order, so the "
+                                    "actor may send it ahead (model/rules.py; the ros backend's managers must agree)")
     reward_overrides: Dict[str, Dict[str, float]] = setting(
         {}, "reward values replaced for training, as in a scenario's <reward>: {section: {key: value}} over config/reward.yaml")
     match_time_costs: bool = setting(False, "set each scenario's nav.slope so that a second of driving costs what a "

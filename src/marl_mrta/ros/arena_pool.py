@@ -27,14 +27,24 @@ def arena_pool(config: MappoConfig, seed: int, scenario: Optional[str], manager_
     clients = [RosTaskEnvClient(name, wait_wall=manager_wait) for name in arena_managers(config.n_envs)]
     first = clients[0]
     for client in clients:
-        source = client.scenario_path
-        if scenario is not None and source != Path(scenario).resolve():
-            raise RunError(f"{client.manager}: runs scenario {source}, the training is for {scenario}")
-        if client.settings.mask != config.action_mask:
-            raise RunError(f"{client.manager}: mask: the manager masks {client.settings.mask!r}, the settings "
-                           f"train with action_mask {config.action_mask!r} (start it with mask:={config.action_mask})")
-        if source != first.scenario_path:
-            raise RunError(f"{client.manager}: runs scenario {source}, {first.manager} runs {first.scenario_path}")
+        check_manager(client, first, config, scenario)
     reward = training_reward(first.scenario, config.reward_overrides)
     envs = [TrainingRewardEnv(client, reward, client.n_tasks) for client in clients]
     return EnvPool(envs, seed, parallel=True, replayable=False), str(first.scenario_path)
+
+
+def check_manager(client, first, config: MappoConfig, scenario: Optional[str]) -> None:
+    """RunError (one line) unless an arena's manager runs what the run trains for: `scenario`
+    (when given) and the first arena's, the settings' action mask and hold_successors."""
+    source = client.scenario_path
+    if scenario is not None and source != Path(scenario).resolve():
+        raise RunError(f"{client.manager}: runs scenario {source}, the training is for {scenario}")
+    if client.settings.mask != config.action_mask:
+        raise RunError(f"{client.manager}: mask: the manager masks {client.settings.mask!r}, the settings "
+                       f"train with action_mask {config.action_mask!r} (start it with mask:={config.action_mask})")
+    if client.settings.hold_successors != config.hold_successors:
+        raise RunError(f"{client.manager}: hold_successors: the manager's is {client.settings.hold_successors}, the "
+                       f"settings train with {config.hold_successors} (start it with "
+                       f"hold_successors:={str(config.hold_successors).lower()})")
+    if source != first.scenario_path:
+        raise RunError(f"{client.manager}: runs scenario {source}, {first.manager} runs {first.scenario_path}")
