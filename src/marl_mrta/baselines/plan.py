@@ -7,9 +7,9 @@ be replayed through the environment and scored by the same rules as every other 
 """
 from __future__ import annotations
 
+import dataclasses
 import heapq
 import math
-import dataclasses
 from dataclasses import dataclass, field
 from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 
