@@ -3,6 +3,7 @@
 #include "marl_mrta/sim/stand_in_config.h"  // readNameList
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <sstream>
 
@@ -10,6 +11,13 @@ namespace marl_mrta {
 namespace sim {
 
 namespace {
+
+// A relative ROS namespace: what a robot's name may be.
+bool validName(const std::string& name) {
+  if (name.empty() || name.front() == '/' || name.back() == '/') return false;
+  return std::all_of(name.begin(), name.end(),
+                     [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '/'; });
+}
 
 using nav::ParamError;
 using nav::ParamNode;
@@ -129,6 +137,7 @@ SimConfig readSimConfig(const ParamNode& params) {
   config.map_file = params.getString("map_file", config.map_file);
   config.robots = params.getInt("robots", config.robots);
   config.arenas = params.getInt("arenas", config.arenas);
+  config.robot_names = readNameList(params, "robot_names", config.robot_names);
   config.start_poses = readPoses(params, "start_poses", config.start_poses);
   config.physics_rate = finiteNumber(params, "physics_rate", config.physics_rate);
   config.odom_rate = finiteNumber(params, "odom_rate", config.odom_rate);
@@ -173,10 +182,34 @@ SimConfig readSimConfig(const ParamNode& params) {
   return config;
 }
 
+std::vector<std::string> arenaRobotNames(const SimConfig& config) {
+  if (config.robot_names.empty()) {
+    std::vector<std::string> names;
+    for (int i = 0; i < config.robots; ++i) names.push_back(defaultRobotName(i));
+    return names;
+  }
+  if (static_cast<int>(config.robot_names.size()) != config.robots) {
+    throw ParamError("robot_names", std::to_string(config.robot_names.size()) + " names for robots: " +
+                                        std::to_string(config.robots) + " (give one name per robot of an arena)");
+  }
+  for (size_t i = 0; i < config.robot_names.size(); ++i) {
+    const std::string& name = config.robot_names[i];
+    if (!validName(name)) {
+      throw ParamError("robot_names[" + std::to_string(i) + "]",
+                       "'" + name + "' is not a relative namespace (letters, digits, _ and /, no leading slash)");
+    }
+    if (std::count(config.robot_names.begin(), config.robot_names.end(), name) > 1) {
+      throw ParamError("robot_names", "'" + name + "' is given twice");
+    }
+  }
+  return config.robot_names;
+}
+
 std::vector<std::string> robotNamespaces(const SimConfig& config) {
+  const std::vector<std::string> arena_names = arenaRobotNames(config);
   std::vector<std::string> names;
   for (int arena = 0; arena < config.arenas; ++arena) {
-    for (int i = 0; i < config.robots; ++i) names.push_back(robotNamespace(config.arenas, arena, i));
+    for (int i = 0; i < config.robots; ++i) names.push_back(robotNamespace(arena_names, config.arenas, arena, i));
   }
   return names;
 }
@@ -208,6 +241,7 @@ WorldConfig makeWorldConfig(const SimConfig& config) {
   WorldConfig world;
   world.arenas = config.arenas;
   world.start_poses.assign(config.start_poses.begin(), config.start_poses.begin() + config.robots);
+  world.robot_names = arenaRobotNames(config);
   world.physics_rate = config.physics_rate;
   world.scan_rate = config.scan_rate;
   world.odom_rate = config.odom_rate;

@@ -1,7 +1,6 @@
 #include "marl_mrta/sim/stand_in_config.h"
 
 #include <algorithm>
-#include <cctype>
 #include <cmath>
 #include <sstream>
 
@@ -17,11 +16,6 @@ double positive(const ParamNode& params, const std::string& key, double default_
   const double value = params.getDouble(key, default_value);
   if (!(value > 0.0) || !std::isfinite(value)) throw ParamError(params.pathOf(key), "must be a positive number");
   return value;
-}
-
-bool validName(const std::string& name) {
-  if (name.empty() || name.front() == '/' || name.back() == '/') return false;
-  return std::all_of(name.begin(), name.end(), [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '/'; });
 }
 
 }  // namespace
@@ -49,7 +43,6 @@ std::vector<std::string> readNameList(const ParamNode& params, const std::string
 StandInConfig readStandInConfig(const ParamNode& params) {
   StandInConfig stand_in;
   stand_in.enabled = params.getBool("stand_in", stand_in.enabled);
-  stand_in.robot_names = readNameList(params, "robot_names", {});
   stand_in.imu_rate = positive(params, "imu_rate", stand_in.imu_rate);
   stand_in.scan_stamp_lag = params.getDouble("scan_stamp_lag", stand_in.scan_stamp_lag, 0.0, 1.0);
   stand_in.lds_rpm = positive(params, "lds_rpm", stand_in.lds_rpm);
@@ -68,20 +61,8 @@ void checkStandIn(StandInConfig& stand_in, SimConfig& config) {
     throw ParamError("publish_localization", "must be false with stand_in (map -> odom is amcl's on real robots)");
   }
   if (config.start_paused) throw ParamError("start_paused", "must be false with stand_in (no pause on real robots)");
-  if (stand_in.robot_names.empty()) {
-    for (int i = 0; i < config.robots; ++i) stand_in.robot_names.push_back("tb3_" + std::to_string(i));
-  }
-  for (size_t i = 0; i < stand_in.robot_names.size(); ++i) {
-    const std::string& name = stand_in.robot_names[i];
-    if (!validName(name)) {
-      throw ParamError("robot_names[" + std::to_string(i) + "]",
-                       "'" + name + "' is not a relative namespace (letters, digits, _ and /, no leading slash)");
-    }
-    if (std::count(stand_in.robot_names.begin(), stand_in.robot_names.end(), name) > 1) {
-      throw ParamError("robot_names", "'" + name + "' is given twice");
-    }
-  }
-  config.robots = static_cast<int>(stand_in.robot_names.size());
+  // The stand-in plays the robots it is given by name (real.launch's), however many.
+  if (!config.robot_names.empty()) config.robots = static_cast<int>(config.robot_names.size());
   if (stand_in.imu_rate > config.physics_rate) {
     std::ostringstream problem;
     problem << "must not exceed physics_rate (" << config.physics_rate << " Hz), got " << stand_in.imu_rate;

@@ -70,11 +70,12 @@ StandInRos::StandInRos(ros::NodeHandle& nh, ros::NodeHandle& private_nh) {
 }
 
 void StandInRos::advertise(ros::NodeHandle& nh) {
-  burgers_.resize(stand_in_.robot_names.size());
+  const std::vector<std::string> names = robotNamespaces(config_);
+  burgers_.resize(names.size());
   const LidarSpec& lidar = world_->config().robot.lidar;
   for (size_t g = 0; g < burgers_.size(); ++g) {
     Burger& burger = burgers_[g];
-    burger.ns = stand_in_.robot_names[g];
+    burger.ns = names[g];
     const std::string base = "/" + burger.ns + "/";
     burger.cmd_vel_sub = nh.subscribe<geometry_msgs::Twist>(
         base + "cmd_vel", 10,

@@ -89,8 +89,10 @@ uint64_t episodeSeed(int configured_seed, uint64_t episode_seed) {
 
 }  // namespace
 
-std::string robotNamespace(int arenas, int arena, int index) {
-  const std::string robot = "tb3_" + std::to_string(index);
+std::string defaultRobotName(int index) { return "tb3_" + std::to_string(index); }
+
+std::string robotNamespace(const std::vector<std::string>& names, int arenas, int arena, int index) {
+  const std::string robot = index < static_cast<int>(names.size()) ? names[index] : defaultRobotName(index);
   return arenas > 1 ? "arena_" + std::to_string(arena) + "/" + robot : robot;
 }
 
@@ -379,8 +381,8 @@ std::string World::reset(int arena, const std::vector<std::pair<int, Pose2D>>& n
     const int g = entry.first;
     if (g < 0 || g >= robotCount()) return "robot " + std::to_string(g) + " does not exist";
     if (arena != -1 && g / robots_per_arena_ != arena) {
-      return robotNamespace(config_.arenas, g / robots_per_arena_, g % robots_per_arena_) + " is not in arena " +
-             std::to_string(arena);
+      return robotNamespace(config_.robot_names, config_.arenas, g / robots_per_arena_, g % robots_per_arena_) +
+             " is not in arena " + std::to_string(arena);
     }
     start_poses[g] = entry.second;
   }
@@ -391,7 +393,7 @@ std::string World::reset(int arena, const std::vector<std::pair<int, Pose2D>>& n
                                           start_poses.begin() + globalIndex(k + 1, 0));
     for (int i = 0; i < robots_per_arena_; ++i) {
       const std::string problem = placementProblem(arena_poses[i], arena_poses, i);
-      if (!problem.empty()) return robotNamespace(config_.arenas, k, i) + ": " + problem;
+      if (!problem.empty()) return robotNamespace(config_.robot_names, config_.arenas, k, i) + ": " + problem;
     }
   }
   for (int k = first_arena; k <= last_arena; ++k) {

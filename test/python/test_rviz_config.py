@@ -4,7 +4,8 @@ from pathlib import Path
 
 import yaml
 
-from marl_mrta.ros.rviz_config import robot_namespaces, team_config
+from marl_mrta.common.robot_names import arena_namespaces, default_robot_names
+from marl_mrta.ros.rviz_config import team_config
 
 TEMPLATE = yaml.safe_load((Path(__file__).resolve().parents[2] / "rviz" / "marl_mrta.rviz").read_text())
 
@@ -14,7 +15,7 @@ def _displays(config):
 
 
 def test_sixteen_robots_get_a_group_each_in_their_own_namespace():
-    namespaces = robot_namespaces(16, 1)
+    namespaces = arena_namespaces(default_robot_names(16), 1)
     config = team_config(TEMPLATE, namespaces, 1)
     groups = [d for d in _displays(config) if d["Class"] == "rviz/Group"]
     assert [g["Name"] for g in groups] == namespaces
@@ -28,7 +29,7 @@ def test_sixteen_robots_get_a_group_each_in_their_own_namespace():
 
 
 def test_arenas_get_their_robots_and_their_markers():
-    config = team_config(TEMPLATE, robot_namespaces(2, 3), 3)
+    config = team_config(TEMPLATE, arena_namespaces(default_robot_names(2), 3), 3)
     names = [d["Name"] for d in _displays(config) if d["Class"] == "rviz/Group"]
     assert names == ["arena_0/tb3_0", "arena_0/tb3_1", "arena_1/tb3_0", "arena_1/tb3_1", "arena_2/tb3_0",
                      "arena_2/tb3_1"]

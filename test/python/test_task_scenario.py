@@ -56,6 +56,7 @@ MALFORMED = [
     ("goal_off_map", '<task id="A1">: goal (9, 1) is off the map'),
     ("duplicate_task_id", '<task id="A1">: duplicate task id'),
     ("duplicate_robot_id", '<robot id="tb3_0">: duplicate robot id'),
+    ("bad_robot_id", '<robot id="/burger a">: id \'/burger a\' is not a relative ROS namespace'),
     ("missing_field", "<robot id=\"tb3_1\">: missing attribute 'y'"),
     ("non_numeric_field", "<task id=\"A1\">: attribute 'x' is not a number: 'one'"),
     ("missing_nav_time", "<scenario>: missing element <nav_time>"),

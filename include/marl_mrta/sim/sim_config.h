@@ -20,6 +20,8 @@ struct SimConfig {
   std::string map_file;                 // map_server YAML
   int robots = 2;                       // robots per arena
   int arenas = 1;
+  // The robots' names (namespaces within an arena), as many as `robots`; empty: tb3_0 ...
+  std::vector<std::string> robot_names;
   std::vector<Pose2D> start_poses = {   // docs/architecture.md; the first `robots` are used
       {0.5, 0.5, 0.0}, {0.5, 4.5, 0.0}, {6.5, 0.5, M_PI}, {6.5, 4.5, M_PI}};
   double physics_rate = 20.0;           // [Hz] >= 20
@@ -63,6 +65,11 @@ std::map<std::string, NoiseModel> loadNoiseProfiles(const std::string& yaml_file
 // Checks what the world does not check itself and builds the world's configuration.
 // Throws nav::ParamError naming the setting (e.g. "noise_profile").
 WorldConfig makeWorldConfig(const SimConfig& config);
+
+// The names of an arena's robots: robot_names, or tb3_0 ... for `robots` robots. Throws
+// nav::ParamError when robot_names has another count, repeats a name or holds one that is not a
+// relative namespace.
+std::vector<std::string> arenaRobotNames(const SimConfig& config);
 
 // Namespaces of every robot, arena by arena (global index order).
 std::vector<std::string> robotNamespaces(const SimConfig& config);

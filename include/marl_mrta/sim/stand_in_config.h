@@ -13,8 +13,7 @@ namespace marl_mrta {
 namespace sim {
 
 struct StandInConfig {
-  bool enabled = false;                  // ~stand_in
-  std::vector<std::string> robot_names;  // namespaces (TurtleBot3's multi_robot_name); empty: tb3_0 ...
+  bool enabled = false;                  // ~stand_in (the robots: SimConfig::robot_names, TurtleBot3's multi_robot_name)
   double imu_rate = 200.0;               // [Hz] imu, magnetic_field (turtlebot3_core's IMU_PUBLISH_FREQUENCY)
   // [s] a scan is published, and stamped, this long after the instant its ranges show: the
   // LDS-01 driver (hls_lfcd_lds_driver 1.1) stamps a rotation when it has read all of it, and
@@ -38,7 +37,7 @@ std::vector<std::string> readNameList(const nav::ParamNode& params, const std::s
 StandInConfig readStandInConfig(const nav::ParamNode& params);
 
 // Checks the stand-in against the simulator settings it runs with and fills in what follows from
-// them (robot names, the robot count). Throws nav::ParamError naming the parameter.
+// them (the robot count from robot_names). Throws nav::ParamError naming the parameter.
 void checkStandIn(StandInConfig& stand_in, SimConfig& config);
 
 }  // namespace sim

@@ -23,12 +23,18 @@
 namespace marl_mrta {
 namespace sim {
 
-// Namespace of robot `index` of `arena`: tb3_i, or arena_k/tb3_i when there are several arenas.
-std::string robotNamespace(int arenas, int arena, int index);
+// The name of robot `index` of an arena when none is configured: tb3_<index> (TurtleBot3's
+// multi_robot_name convention).
+std::string defaultRobotName(int index);
+
+// Namespace of robot `index` of `arena`: its name (`names`, per arena; empty: defaultRobotName),
+// prefixed arena_k/ when there are several arenas.
+std::string robotNamespace(const std::vector<std::string>& names, int arenas, int arena, int index);
 
 struct WorldConfig {
   int arenas = 1;
   std::vector<Pose2D> start_poses;  // one per robot of an arena (map frame)
+  std::vector<std::string> robot_names;  // one per robot of an arena (messages); empty: tb3_0 ...
   double physics_rate = 20.0;       // [Hz] ticks per second of sim time
   double scan_rate = 5.0;           // [Hz] 0: no lidar
   double odom_rate = 20.0;          // [Hz] how often odometry is due for publishing

@@ -37,6 +37,7 @@ import numpy as np
 from scipy import ndimage
 
 from marl_mrta.common.paths import package_root
+from marl_mrta.common.robot_names import default_robot_names
 from marl_mrta.model.occupancy_map import FREE, OCCUPIED, MapOrigin, OccupancyMap, load_map, save_map
 from marl_mrta.model.scenario import Scenario, ScenarioError, footprint_radius, footprint_spacing, load_scenario
 from marl_mrta.model.travel import TravelModel, nominal_travel_table, suggest_nav_thresholds
@@ -234,7 +235,8 @@ def scenario_xml(name: str, map_file: str, robots: Sequence[Tuple[float, float, 
         lines.append(f"<!-- {comment} -->")
     robots_tag = "  <robots>" if navigation is None else f"  <robots navigation={quoteattr(navigation)}>"
     lines += [f"<scenario name={quoteattr(name)}>", f"  <map file={quoteattr(map_file)}/>", robots_tag]
-    lines += [f'    <robot id="tb3_{r}" x="{x:g}" y="{y:g}" yaw="{yaw:g}"/>' for r, (x, y, yaw) in enumerate(robots)]
+    lines += [f'    <robot id="{robot}" x="{x:g}" y="{y:g}" yaw="{yaw:g}"/>'
+              for robot, (x, y, yaw) in zip(default_robot_names(len(robots)), robots)]
     lines += ["  </robots>", "  <tasks>"]
     lines += [f'    <task id="{tid}" category="{cat}" x="{x:g}" y="{y:g}" yaw="{yaw:g}" service_time="{service:g}"/>'
               for tid, cat, (x, y, yaw), service in tasks]

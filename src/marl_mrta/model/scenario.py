@@ -12,6 +12,7 @@ baselines/reference.py).
 from __future__ import annotations
 
 import math
+import re
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -316,9 +317,17 @@ def _check_chains_fit(reader: _Reader, parent: ET.Element, tasks: Sequence["Task
                                            f"the chain {path} needs {finish:g} s of service alone")
 
 
+#: A relative ROS graph name: what a robot id may be, since it is the robot's namespace.
+_NAMESPACE = re.compile(r"[A-Za-z][A-Za-z0-9_]*(/[A-Za-z][A-Za-z0-9_]*)*")
+
+
 def _read_robots(reader: _Reader, parent: ET.Element, grid_map: OccupancyMap) -> Tuple[RobotSpec, ...]:
-    return tuple(RobotSpec(robot_id, start) for _, robot_id, start in
-                 _read_posed(reader, parent, "robot", ("id", "x", "y", "yaw"), (), grid_map, "start pose"))
+    robots = _read_posed(reader, parent, "robot", ("id", "x", "y", "yaw"), (), grid_map, "start pose")
+    for element, robot_id, _ in robots:
+        if not _NAMESPACE.fullmatch(robot_id):
+            raise reader.fail(element, f"id {robot_id!r} is not a relative ROS namespace (the robot's: a letter first, "
+                                       f"then letters, digits, _ and / between names)")
+    return tuple(RobotSpec(robot_id, start) for _, robot_id, start in robots)
 
 
 def _read_tasks(reader: _Reader, parent: ET.Element, grid_map: OccupancyMap) -> Tuple[TaskSpec, ...]:

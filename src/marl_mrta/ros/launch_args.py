@@ -16,24 +16,27 @@ from marl_mrta.model.scenario import ScenarioError, load_scenario
 
 
 def scenario_value(path: str, key: str) -> Union[int, str]:
-    """key: `robots` (count), `map` (map_server YAML), `start_poses` (YAML list of [x, y, yaw]),
-    `navigation` (the directory of the robots' navigation parameter files)."""
+    """key: `robots` (count), `robot_names` (the robots' ids, their namespaces, separated by spaces),
+    `map` (map_server YAML), `start_poses` (YAML list of [x, y, yaw]), `navigation` (the directory of
+    the robots' navigation parameter files)."""
     default_navigation = str(default_config_path("nav"))
     try:
         scenario = load_scenario(path)
     except ScenarioError:
-        fallback = {"robots": 1, "map": str(package_root() / "maps" / "lab.yaml"), "start_poses": "[[0.5, 0.5, 0.0]]",
+        fallback = {"robots": 1, "robot_names": "", "map": str(package_root() / "maps" / "lab.yaml"), "start_poses": "[[0.5, 0.5, 0.0]]",
                     "navigation": default_navigation}
         return fallback[key]
     if key == "robots":
         return scenario.n_robots
+    if key == "robot_names":
+        return " ".join(robot.id for robot in scenario.robots)
     if key == "map":
         return str(scenario.map_path.resolve())
     if key == "start_poses":
         return pose_list([(r.start.x, r.start.y, r.start.yaw) for r in scenario.robots])
     if key == "navigation":
         return str(scenario.navigation_dir) if scenario.navigation_dir else default_navigation
-    raise KeyError(f"scenario_value: unknown key {key!r} (robots, map, start_poses, navigation)")
+    raise KeyError(f"scenario_value: unknown key {key!r} (robots, robot_names, map, start_poses, navigation)")
 
 
 def pose_list(poses: Sequence[Sequence[float]]) -> str:

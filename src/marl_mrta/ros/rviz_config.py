@@ -1,13 +1,15 @@
 """The rviz configuration for any team: rviz/marl_mrta.rviz holds one robot's display group
 (tb3_0: model, scan, odometry) and one task-marker display; this module repeats them for every
-robot of every arena (namespaces tb3_i or arena_k/tb3_i), each robot in a colour of its own."""
+robot of every arena (common/robot_names.py), each robot in a colour of its own."""
 from __future__ import annotations
 
 import copy
 from pathlib import Path
-from typing import Any, Dict, List, Sequence
+from typing import Any, Dict, Sequence
 
 import yaml
+
+from marl_mrta.common.robot_names import arena_namespaces
 
 TEMPLATE_ROBOT = "tb3_0"
 TASK_MARKERS = "Tasks"
@@ -15,11 +17,6 @@ TASK_MARKERS = "Tasks"
 #: rviz/marl_mrta.rviz's four groups first, then more; none blue, the robot model's colour.
 COLOURS = ("239; 41; 41", "245; 121; 0", "78; 154; 6", "173; 127; 168", "193; 125; 17", "6; 152; 154",
            "204; 0; 102", "117; 80; 123")
-
-
-def robot_namespaces(robots: int, arenas: int) -> List[str]:
-    """tb3_0 ... per arena, arena_k/tb3_i when there is more than one (launch/sim.launch's names)."""
-    return [(f"arena_{k}/" if arenas > 1 else "") + f"tb3_{i}" for k in range(arenas) for i in range(robots)]
 
 
 def _retarget(value: Any, old: str, new: str) -> Any:
@@ -45,6 +42,7 @@ def team_config(template: Dict[str, Any], namespaces: Sequence[str], arenas: int
     displays = config["Visualization Manager"]["Displays"]
     robot_group = next(d for d in displays if d.get("Class") == "rviz/Group" and d.get("Name") == TEMPLATE_ROBOT)
     markers = next(d for d in displays if d.get("Class") == "rviz/MarkerArray" and d.get("Name") == TASK_MARKERS)
+    # The template's own robot groups (tb3_0 ... tb3_3) give way to the team's.
     kept = [d for d in displays if not (d.get("Class") == "rviz/Group" and str(d.get("Name", "")).startswith("tb3_"))
             and d is not markers]
     groups = []
@@ -65,8 +63,8 @@ def team_config(template: Dict[str, Any], namespaces: Sequence[str], arenas: int
     return config
 
 
-def write_team_config(template_path: Path, out: Path, robots: int, arenas: int) -> Path:
+def write_team_config(template_path: Path, out: Path, robot_names: Sequence[str], arenas: int) -> Path:
     template = yaml.safe_load(Path(template_path).read_text())
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(yaml.safe_dump(team_config(template, robot_namespaces(robots, arenas), arenas), sort_keys=False))
+    out.write_text(yaml.safe_dump(team_config(template, arena_namespaces(robot_names, arenas), arenas), sort_keys=False))
     return out

@@ -16,6 +16,7 @@ from geometry_msgs.msg import Pose2D as Pose2DMsg
 from nav_msgs.msg import Odometry
 from std_srvs.srv import SetBool
 
+from marl_mrta.common.robot_names import arena_namespaces, default_robot_names, name_list
 from marl_mrta.msg import CollisionEvent, LockstepAck
 from marl_mrta.srv import ResetSim, ResetSimRequest, RunSim, StepSim
 
@@ -37,12 +38,11 @@ class SimulatorConfig:
     lockstep_robots: Tuple[str, ...]   # empty: every robot
     robots: int                        # per arena
     arenas: int
+    names: Tuple[str, ...] = ()        # of an arena's robots; empty: tb3_0 ...
 
     def robot_names(self) -> List[str]:
-        """Namespaces of every simulated robot (docs/architecture.md)."""
-        if self.arenas == 1:
-            return [f"tb3_{i}" for i in range(self.robots)]
-        return [f"arena_{k}/tb3_{i}" for k in range(self.arenas) for i in range(self.robots)]
+        """Namespaces of every simulated robot (common/robot_names.py)."""
+        return arena_namespaces(self.names or default_robot_names(self.robots), self.arenas)
 
     def answers_lockstep(self, robot: str) -> bool:
         return self.lockstep and (not self.lockstep_robots or robot in self.lockstep_robots)
@@ -54,12 +54,11 @@ def read_simulator_config() -> SimulatorConfig:
         params = rospy.get_param(SIMULATOR)
     except KeyError:
         raise SimulatorLost(f"no parameters under {SIMULATOR}: is the simulator running?") from None
-    listed = params.get("lockstep_robots", [])
-    if isinstance(listed, str):
-        listed = listed.replace(",", " ").split()
     return SimulatorConfig(physics_rate=float(params.get("physics_rate", 20.0)),
-                           lockstep=bool(params.get("lockstep", False)), lockstep_robots=tuple(listed),
-                           robots=int(params.get("robots", 2)), arenas=int(params.get("arenas", 1)))
+                           lockstep=bool(params.get("lockstep", False)),
+                           lockstep_robots=tuple(name_list(params.get("lockstep_robots"))),
+                           robots=int(params.get("robots", 2)), arenas=int(params.get("arenas", 1)),
+                           names=tuple(name_list(params.get("robot_names"))))
 
 
 class SimulatorLink:
@@ -102,7 +101,7 @@ class SimulatorLink:
         unknown = [ns for ns in self.robots if ns not in known]
         if unknown:
             raise SimulatorLost(f"the simulator has no robot {', '.join(unknown)} (it simulates {', '.join(known)}; "
-                                f"its `robots` must match the scenario)")
+                                f"its `robot_names` must be the scenario's robot ids: tasks.launch passes them)")
         self.config = config
         if self.tracks_answers:
             rospy.Subscriber(SIMULATOR + "/lockstep_ack", LockstepAck, self._on_ack, queue_size=100,

@@ -82,8 +82,9 @@ TEST(Arenas, ResettingOneArenaLeavesTheOthersAlone) {
   // Poses for a robot of another arena than the one reset are refused.
   EXPECT_NE(world.reset(1, {{world.globalIndex(0, 1), {2.0, 2.0, 0.0}}}).find("arena_0/tb3_1 is not in arena 1"),
             std::string::npos);
-  EXPECT_EQ(robotNamespace(2, 1, 0), "arena_1/tb3_0");
-  EXPECT_EQ(robotNamespace(1, 0, 3), "tb3_3");
+  EXPECT_EQ(robotNamespace({}, 2, 1, 0), "arena_1/tb3_0");
+  EXPECT_EQ(robotNamespace({}, 1, 0, 3), "tb3_3");
+  EXPECT_EQ(robotNamespace({"burger_a", "burger_b"}, 2, 1, 1), "arena_1/burger_b");
 }
 
 }  // namespace

@@ -182,6 +182,32 @@ TEST(SimConfig, EachBadValueNamesItsSetting) {
   EXPECT_EQ(errorAfter([](SimConfig& c) { c.lockstep_robots = {"tb3_0", "tb3_7"}; }),
             "lockstep_robots: unknown robot 'tb3_7' (robots: tb3_0, tb3_1)");
   EXPECT_EQ(errorAfter([](SimConfig& c) { c.lockstep_robots = {"tb3_1"}; }), "accepted");
+  EXPECT_EQ(errorAfter([](SimConfig& c) { c.robot_names = {"burger_a"}; }),
+            "robot_names: 1 names for robots: 2 (give one name per robot of an arena)");
+  EXPECT_EQ(errorAfter([](SimConfig& c) { c.robot_names = {"burger_a", "/burger_b"}; }),
+            "robot_names[1]: '/burger_b' is not a relative namespace (letters, digits, _ and /, no leading slash)");
+  EXPECT_EQ(errorAfter([](SimConfig& c) { c.robot_names = {"burger_a", "burger_a"}; }),
+            "robot_names: 'burger_a' is given twice");
+  EXPECT_EQ(errorAfter([](SimConfig& c) {
+              c.robot_names = {"burger_a", "burger_b"};
+              c.lockstep_robots = {"tb3_1"};
+            }),
+            "lockstep_robots: unknown robot 'tb3_1' (robots: burger_a, burger_b)");
+}
+
+// A scenario's robot ids are the simulated robots' namespaces (tasks.launch passes them).
+TEST(SimConfig, RobotNamesAreTheNamespaces) {
+  EXPECT_EQ(readErrorWith("robot_names", "burger_a burger_b"), "accepted");
+  SimConfig config = validConfig();
+  config.robot_names = {"burger_a", "burger_b"};
+  config.arenas = 2;
+  const std::vector<std::string> names = robotNamespaces(config);
+  ASSERT_EQ(names.size(), 4u);
+  EXPECT_EQ(names[0], "arena_0/burger_a");
+  EXPECT_EQ(names[3], "arena_1/burger_b");
+  EXPECT_EQ(makeWorldConfig(config).robot_names, config.robot_names);
+  config.robot_names.clear();
+  EXPECT_EQ(robotNamespaces(config)[1], "arena_0/tb3_1");
 }
 
 }  // namespace
