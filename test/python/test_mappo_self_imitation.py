@@ -137,3 +137,38 @@ def test_the_reference_teacher_offers_the_best_known_plan_the_in_turn_decision_c
     runner, lines = _teacher_run(tmp_path / "3r_sequential", LAB_3R, teacher="reference", turn_order="nearest_ready",
                                  decision_order="sequential")
     assert runner.self_imitation.best_seed == 0 and "a schedule of 37.10 s offered" in lines[0]
+
+
+def test_a_reference_teacher_held_to_a_budget_is_never_longer_than_the_ga(tmp_path):
+    """teacher_seconds holds the reference's solvers to a budget (BaselineSettings.within); the GA's
+    plan is among its candidates, so a budget too small for CP-SAT to match it still offers it (site_8r:
+    8 robots, CP-SAT serves). Without the GA among the candidates the plan offered was the auction's
+    or a CP-SAT plan of a few milliseconds, longer than the GA's."""
+    from marl_mrta.baselines.ga import solve_ga
+    from marl_mrta.baselines.plan import under_either_rules
+    from marl_mrta.baselines.reference import scheduling_instance
+    from marl_mrta.baselines.settings import CPSAT_MODELS, load_baseline_settings
+
+    settings = load_baseline_settings()
+    held = settings.within(0.05)
+    assert held.astar.time_limit == 0.025 and held.cpsat.time_limit == pytest.approx(0.025 / CPSAT_MODELS)
+    assert settings.within(1e6) == settings
+    site_8r = package_root() / "scenarios" / "site_8r.xml"
+    runner, lines = _teacher_run(tmp_path, site_8r, teacher="reference", teacher_seconds=0.05,
+                                 decision_order="sequential")
+    task = load_task_settings()
+    instance = scheduling_instance(runner.replay_env()[0].scenario, task.min_step, task.goal_timeout)
+    ga = under_either_rules(lambda inst: solve_ga(inst, settings.ga, seed=0), instance)
+    assert "teacher reference: a schedule of" in lines[0]
+    assert runner.self_imitation.best_makespan <= ga.makespan + 1e-6
+
+
+def test_the_ga_plan_is_offered_where_the_in_turn_decision_cannot_take_the_best_known(tmp_path):
+    """chains_3r6t (bench_generalise's test_001): the reference's optimum needs a step the in-turn
+    decision (sequential, nearest ready first) cannot take; the GA's plan, as short, can, and is
+    offered. Before, nothing was offered and a minute of fine-tuning ended out of precedence order."""
+    scenario = package_root() / "test" / "data" / "scenarios" / "chains_3r6t.xml"
+    runner, lines = _teacher_run(tmp_path, scenario, teacher="reference", decision_order="sequential",
+                                 turn_order="nearest_ready")
+    assert "step 3 of its 39.27 s schedule is not one" in lines[0] and "a schedule of 39.27 s offered" in lines[0]
+    assert runner.self_imitation.best_makespan == pytest.approx(39.27, abs=0.01)

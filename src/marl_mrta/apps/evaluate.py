@@ -163,7 +163,7 @@ def ratio_note(reference: Reference) -> str:
     if reference.proven_optimal:
         return f"ratios: makespan / the proven optimum{under} {reference.best_makespan:.2f} s"
     return (f"ratios: makespan / the best known{under} {reference.best_makespan:.2f} s ({reference.best_source}; not "
-            f"proven optimal: lower bound {reference.lower_bound:.2f} s, gap {100 * reference.gap:.1f} %)")
+            f"proven optimal: lower bound {reference.lower_bound:.2f} s, {reference.gap_text()})")
 
 
 def plan_json(plan: Plan, task_ids: Sequence[str]) -> Dict[str, Any]:

@@ -78,11 +78,19 @@ class Reference:
     def proven_optimal(self) -> bool:
         return self.gap == 0.0
 
+    def gap_text(self) -> str:
+        """The gap in percent, and in seconds where the percentage rounds to 0.0 (a bound a few
+        of the relaxations' 10 ms ticks under the plan)."""
+        text = f"gap {100 * self.gap:.1f} %"
+        if round(100 * self.gap, 1) == 0.0:
+            text += f" ({self.best_makespan - self.lower_bound:.3f} s)"
+        return text
+
     def describe(self) -> str:
         """One line: best, bound, gap and who found them."""
         if not math.isfinite(self.best_makespan):
             return f"reference: no plan found, lower bound {self.lower_bound:.2f} s ({self.bound_source}), {self.seconds:.1f} s"
-        state = "proven optimal" if self.proven_optimal else f"gap {100 * self.gap:.1f} %, NOT proven optimal"
+        state = "proven optimal" if self.proven_optimal else f"{self.gap_text()}, NOT proven optimal"
         return (f"reference: best {self.best_makespan:.2f} s ({self.best_source}), lower bound {self.lower_bound:.2f} s "
                 f"({self.bound_source}), {state}, {self.seconds:.1f} s")
 

@@ -53,6 +53,19 @@ class BaselineSettings:
             budget = replace(budget, workers=workers)
         return replace(self, cpsat=budget)
 
+    def within(self, seconds: float) -> "BaselineSettings":
+        """These settings with the reference's solvers held to about `seconds` in all: half of it
+        the A*'s wall-time limit, the other half shared by the CP-SAT models' deterministic time limits."""
+        astar = replace(self.astar, time_limit=min(self.astar.time_limit, seconds / 2))
+        cpsat_share = seconds / 2 / CPSAT_MODELS
+        return replace(self.with_cpsat(time_limit=min(self.cpsat.time_limit, cpsat_share)), astar=astar)
+
+
+#: CP-SAT models the reference may solve one after another (three relaxations, the step model,
+#: the probe of a gap): `within` shares half of a planning time among them, the A* has the other half
+#: (an A* that stops unproven hands over to CP-SAT).
+CPSAT_MODELS = 5
+
 
 #: The GA's whole-number settings and the least value each may take (its rates lie in [0, 1]).
 GA_COUNTS = (("population", 4), ("generations", 1), ("stall_generations", 1), ("tournament", 1), ("elite", 0),

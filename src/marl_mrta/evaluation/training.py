@@ -61,20 +61,28 @@ def offer_teacher_plan(runner: Runner, log: Callable[[str], None] = print) -> No
     task = load_task_settings()
     instance = scheduling_instance(scenario, task.min_step, task.goal_timeout,
                                    hold_successors=runner.config.hold_successors)
+    settings = load_baseline_settings()
+    ga = under_either_rules(lambda inst: solve_ga(inst, settings.ga, seed=runner.seed), instance)
+    plans = [ga]
     if runner.config.teacher == "reference":
-        plan = solve_reference(instance, load_baseline_settings()).plan
-    else:
-        plan = under_either_rules(lambda inst: solve_ga(inst, load_baseline_settings().ga, seed=runner.seed), instance)
+        # The GA's plan is a candidate: the reference's budget may end before its solvers match it.
+        budget = settings.within(runner.config.teacher_seconds) if runner.config.teacher_seconds > 0 else settings
+        best = solve_reference(instance, budget, candidates=[ga]).plan
+        plans = [best] + ([ga] if ga.joint_actions != best.joint_actions else [])
     seconds = time.perf_counter() - started
     runner.wall_time += seconds   # planning is part of the run's training time
-    if not (plan.complete and plan.logic_violations == 0):
+    plans = [plan for plan in plans if plan.complete and plan.logic_violations == 0]
+    if not plans:
         log(f"teacher {runner.config.teacher}: no complete schedule in {seconds:.1f} s; nothing offered")
         return
-    outside = runner.offer_plan(plan.joint_actions)
-    if outside is not None:
-        log(f"teacher {runner.config.teacher}: step {outside + 1} of its {plan.makespan:.2f} s schedule is not one "
-            f"the in-turn decision ({runner.config.decision_order}, turn order {runner.config.turn_order}) can take; "
-            "nothing offered (decision_order sequential leaves out fewer plans: docs/mappo.md)")
-        return
-    log(f"teacher {runner.config.teacher}: a schedule of {plan.makespan:.2f} s offered to self-imitation "
-        f"({seconds:.1f} s)")
+    refused = []
+    for plan in plans:   # the best known first; the GA's when the in-turn decision cannot take it
+        outside = runner.offer_plan(plan.joint_actions)
+        if outside is None:
+            log(f"teacher {runner.config.teacher}: {''.join(r + ' ' for r in refused)}a schedule of "
+                f"{plan.makespan:.2f} s offered to self-imitation ({seconds:.1f} s)")
+            return
+        refused.append(f"step {outside + 1} of its {plan.makespan:.2f} s schedule is not one the in-turn decision "
+                       f"({runner.config.decision_order}, turn order {runner.config.turn_order}) can take;")
+    log(f"teacher {runner.config.teacher}: {' '.join(refused)} nothing offered (decision_order sequential leaves out "
+        "fewer plans: docs/mappo.md)")

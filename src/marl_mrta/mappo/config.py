@@ -105,9 +105,12 @@ class MappoConfig:
                                          "SelfImitation; actor: set, one embedded scenario; 0 = off)", low=0)
     self_imitation_lr: float = setting(1e-3, "Adam step size of that imitation", low=0.0, low_open=True)
     teacher: str = setting("none", "a fresh run first offers this planner's schedule to self-imitation, as if sampled: "
-                           "none | ga (the genetic algorithm of config/baselines.yaml) | reference (evaluate's best "
-                           "known plan: A* or CP-SAT under config/baselines.yaml's budgets); the planning time counts "
-                           "as training wall time", choices=TEACHERS)
+                           "none | ga (the genetic algorithm of config/task_baselines.yaml) | reference (evaluate's "
+                           "best known plan, A* or CP-SAT, with the GA's plan among its candidates, so never longer); "
+                           "the planning time counts as training wall time", choices=TEACHERS)
+    teacher_seconds: float = setting(0.0, "teacher reference: its solvers held to about this many seconds in all "
+                                     "(half the A*'s wall-time limit, half shared by the CP-SAT models in deterministic "
+                                     "time; BaselineSettings.within); 0 = config/task_baselines.yaml's budgets", low=0.0)
     train_threads: int = setting(1, "torch CPU threads of each PPO update (collection and evaluation stay on one); "
                                  "a run repeats bit for bit for a given count, not across counts; 2 on two cores "
                                  "makes an update of site_8r or site_16r 1.4-1.6 x faster", low=1)
