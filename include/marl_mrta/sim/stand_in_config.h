@@ -13,7 +13,7 @@ namespace marl_mrta {
 namespace sim {
 
 struct StandInConfig {
-  bool enabled = false;                  // ~stand_in (the robots: SimConfig::robot_names, TurtleBot3's multi_robot_name)
+  bool enabled = false;                  // ~stand_in (the robots: SimConfig::robot_names)
   double imu_rate = 200.0;               // [Hz] imu, magnetic_field (turtlebot3_core's IMU_PUBLISH_FREQUENCY)
   // [s] a scan is published, and stamped, this long after the instant its ranges show: the
   // LDS-01 driver (hls_lfcd_lds_driver 1.1) stamps a rotation when it has read all of it, and

@@ -23,8 +23,8 @@ def scenario_value(path: str, key: str) -> Union[int, str]:
     try:
         scenario = load_scenario(path)
     except ScenarioError:
-        fallback = {"robots": 1, "robot_names": "", "map": str(package_root() / "maps" / "lab.yaml"), "start_poses": "[[0.5, 0.5, 0.0]]",
-                    "navigation": default_navigation}
+        fallback = {"robots": 1, "robot_names": "", "map": str(package_root() / "maps" / "lab.yaml"),
+                    "start_poses": "[[0.5, 0.5, 0.0]]", "navigation": default_navigation}
         return fallback[key]
     if key == "robots":
         return scenario.n_robots

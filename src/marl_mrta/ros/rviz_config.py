@@ -66,5 +66,6 @@ def team_config(template: Dict[str, Any], namespaces: Sequence[str], arenas: int
 def write_team_config(template_path: Path, out: Path, robot_names: Sequence[str], arenas: int) -> Path:
     template = yaml.safe_load(Path(template_path).read_text())
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(yaml.safe_dump(team_config(template, arena_namespaces(robot_names, arenas), arenas), sort_keys=False))
+    config = team_config(template, arena_namespaces(robot_names, arenas), arenas)
+    out.write_text(yaml.safe_dump(config, sort_keys=False))
     return out
