@@ -151,11 +151,14 @@ def test_mappo_trains_under_the_hold_and_its_actor_sends_a_robot_ahead(tmp_path,
                        "--out", str(run)]) == 0
     assert "a schedule of 34.81 s offered" in capsys.readouterr().out
     out = tmp_path / "policy.json"
-    assert evaluate_main(["--method", "policy", "--policy", str(run / "actor.pt"), "--scenario",
-                          str(ROOT / "scenarios" / "lab_3r.xml"), "--episodes", "1", "--quiet", "--hold-successors",
-                          "--out", str(out)]) == 0
-    summary = json.loads(out.read_text())["results"][0]["summary"]
-    assert summary["makespan_mean"] == pytest.approx(34.81, abs=0.01) and summary["logic_consistent_pct"] == 100.0
+    for flag in (["--hold-successors"], []):   # without the flag, from the actor file
+        assert evaluate_main(["--method", "policy", "--policy", str(run / "actor.pt"), "--scenario",
+                              str(ROOT / "scenarios" / "lab_3r.xml"), "--episodes", "1", "--quiet", *flag,
+                              "--out", str(out)]) == 0
+        document = json.loads(out.read_text())
+        summary = document["results"][0]["summary"]
+        assert document["hold_successors"] is True
+        assert summary["makespan_mean"] == pytest.approx(34.81, abs=0.01) and summary["logic_consistent_pct"] == 100.0
 
 
 def test_the_ros_backend_refuses_managers_whose_hold_differs_from_the_settings():

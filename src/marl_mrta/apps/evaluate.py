@@ -68,8 +68,8 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> argparse.Namespace:
                         "else config/task.yaml)")
     parser.add_argument("--hold-successors", action="store_true",
                         help="a robot early at a successor waits for its predecessors, and the plans are made for "
-                             "it (docs/task_allocation.md, Step rules; default: config/task.yaml; --executor ros: the "
-                             "task manager's)")
+                             "it (docs/task_allocation.md, Step rules; default: config/task.yaml, or on with an actor "
+                             "--policy trained under it; --executor ros: the task manager's)")
     parser.add_argument("--policy", default=None,
                         help="actor file for --method policy or rollout (an MLP actor: its scenario; a set actor: any "
                              "scenario), or generalist (the shipped set actor)")
@@ -203,6 +203,10 @@ def evaluate(args: argparse.Namespace) -> int:
     else:
         if "policy" in args.methods:
             args.mask = LearnedPolicy.trained_mask(args.policy, args.mask)
+        if args.policy and not args.hold_successors and LearnedPolicy.trained_hold(args.policy):
+            # Its episodes and plans under the rules it learned: a robot may be sent ahead to wait.
+            print(f"evaluate: {args.policy} was trained under hold_successors: the episodes hold", file=sys.stderr)
+            args.hold_successors = True
         env = make_env(args.scenario or DEFAULT_SCENARIO, args.executor, profile=args.profile, mask=args.mask,
                        seed=args.seed, hold_successors=True if args.hold_successors else None)
     scenario = env.scenario

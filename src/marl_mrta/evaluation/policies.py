@@ -89,6 +89,14 @@ class LearnedPolicy:
                                   f"give mask {trained} (other methods under {asked} in a run of their own)")
         return trained
 
+    @staticmethod
+    def trained_hold(path: str) -> bool:
+        """Whether the actor file was trained under hold_successors (train --set hold_successors=true)."""
+        try:
+            return bool(load_policy(path).settings.get("hold_successors", False))
+        except (PolicyFileError, ScenarioError) as error:
+            raise PolicyLoadError(str(error)) from None
+
     @classmethod
     def from_file(cls, path: str, n_agents: int, obs_dim: int, n_actions: int, seed: int = 0,
                   deterministic: bool = True, scenario: Optional[Scenario] = None) -> "LearnedPolicy":
