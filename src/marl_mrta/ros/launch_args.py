@@ -11,6 +11,7 @@ from typing import Optional, Sequence, Union
 
 from marl_mrta.common.config import ConfigError, read_yaml
 from marl_mrta.common.paths import default_config_path, package_root
+from marl_mrta.common.robot_names import name_list
 from marl_mrta.model.scenario import ScenarioError, load_scenario
 
 
@@ -90,7 +91,7 @@ def real_robots(robots: str, scenario: str) -> str:
     """real.launch's `robots` checked against the scenario's robots (the task manager drives the
     scenario's robot ids as namespaces): the names, space-separated (the scenario's when `robots`
     is empty); a ValueError if they differ."""
-    names = robots.replace(",", " ").split()
+    names = name_list(robots)
     try:
         ids = [robot.id for robot in load_scenario(scenario).robots]
     except ScenarioError:
