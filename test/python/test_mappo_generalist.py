@@ -134,3 +134,8 @@ def test_bad_sizes_and_policies_end_the_commands_with_one_line(tmp_path, capsys)
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "junk.pt: not a readable actor file" in err, err
     assert not (tmp_path / "bench_generalise.json").exists()
+    floor = tmp_path / "no_floor.yaml"
+    for command in (bench_main, generalist_main):
+        assert command(["--out", str(tmp_path / "f"), "--scenarios", "1", "--layout", str(floor)]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and f"layout: {floor}: cannot read" in err, err

@@ -11,9 +11,11 @@ import sys
 from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
 import pytest
 from scipy import ndimage
 
+from marl_mrta.apps.train_generalist import generated_scenarios
 from marl_mrta.baselines.auction import solve_auction
 from marl_mrta.baselines.ga import solve_ga
 from marl_mrta.baselines.random_policy import RandomPolicy
@@ -24,8 +26,9 @@ from marl_mrta.env.settings import load_embedded_settings, load_task_settings
 from marl_mrta.evaluation.loop import run_episodes
 from marl_mrta.evaluation.policies import PlanPolicy
 from marl_mrta.model.generator import DAG_KINDS, LAYOUTS, GeneratorError, ScenarioRequest, generate_scenario
-from marl_mrta.model.occupancy_map import FREE
+from marl_mrta.model.occupancy_map import FREE, OCCUPIED, UNKNOWN, MapOrigin, OccupancyMap, save_map
 from marl_mrta.model.scenario import footprint_radius, load_scenario
+from marl_mrta.model.travel import nominal_travel_table
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -141,3 +144,54 @@ def test_every_method_completes_every_generated_scenario(generated):
             assert record.makespan == pytest.approx(plan.makespan, abs=1e-9), (scenario.name, plan.method)
         for record in run_episodes(env, RandomPolicy(env.n_agents, env.n_tasks, "unfinished", seed=0), 5, 0):
             assert record.complete, (scenario.name, "random")
+
+
+def _long_floor(directory: Path) -> Path:
+    """A floor of one's own as SLAM leaves it: a 30 x 3 m hall amid unknown space, with a closed
+    1 x 1 m box in it whose inside no robot reaches; end to end its legs are far beyond the goal
+    timeout (about 30 m at 0.22 m/s)."""
+    cols, rows = 640, 100
+    grid = np.full((rows, cols), UNKNOWN, dtype=np.int8)
+    grid[20:80, 10:630] = OCCUPIED
+    grid[22:78, 12:628] = FREE
+    grid[40:62, 300:322] = OCCUPIED           # the box: its inside stays free but unreachable
+    grid[43:59, 303:319] = FREE
+    directory.mkdir(parents=True, exist_ok=True)
+    path = directory / "long_floor.yaml"
+    save_map(OccupancyMap(grid, 0.05, MapOrigin(-2.0, -1.0, 0.0)), path)
+    return path
+
+
+def test_a_floor_of_ones_own_gives_reachable_poses_within_the_goal_timeout(tmp_path, travel_model):
+    floor = _long_floor(tmp_path / "floor")
+    request = ScenarioRequest(n_robots=3, n_tasks=7, layout=str(floor), max_leg=load_task_settings().goal_timeout,
+                              name="own")
+    scenario = generate_scenario(request, 3, tmp_path / "out", travel_model)
+    assert scenario.map_path == floor.resolve()
+    assert f'<map file="{floor.resolve()}"/>' in scenario.source.read_text()
+    grid_map = scenario.load_map()
+    clearance = ndimage.distance_transform_edt(grid_map.grid == FREE) * grid_map.resolution
+    for pose in [r.start for r in scenario.robots] + [t.goal for t in scenario.tasks]:
+        cell = grid_map.world_to_cell(pose.x, pose.y)
+        assert clearance[cell.row, cell.col] >= request.clearance
+        assert not (300 <= cell.col < 322 and 40 <= cell.row < 62), pose   # not in the box (grid row 0: lowest y)
+    legs = nominal_travel_table(scenario, travel_model).nominal_time
+    assert float(legs[:, scenario.n_robots:].max()) <= request.max_leg
+    # The draw follows the floor's name and the seed, not where the file lies.
+    moved = _long_floor(tmp_path / "elsewhere")
+    again = generate_scenario(replace(request, layout=str(moved)), 3, tmp_path / "again", travel_model)
+    assert [t.goal for t in again.tasks] == [t.goal for t in scenario.tasks]
+
+
+def test_a_floor_that_is_no_map_is_one_line(tmp_path):
+    with pytest.raises(GeneratorError, match=r"^layout: .*missing\.yaml: cannot read"):
+        generate_scenario(ScenarioRequest(layout=str(tmp_path / "missing.yaml")), 0, tmp_path)
+    with pytest.raises(GeneratorError, match=r"^layout: '.*floor\.png' is not one of .* or a map YAML file$"):
+        generate_scenario(ScenarioRequest(layout=str(tmp_path / "floor.png")), 0, tmp_path)
+
+
+def test_training_and_benchmark_scenarios_take_a_floor_of_ones_own(tmp_path):
+    floor = _long_floor(tmp_path / "floor")
+    scenarios = generated_scenarios(3, 5, tmp_path / "out", "test", (2, 3), (4, 6), str(floor))
+    assert [s.map_path for s in scenarios] == [floor.resolve()] * 3
+    assert all(2 <= s.n_robots <= 3 and 4 <= s.n_tasks <= 6 for s in scenarios)

@@ -2,6 +2,7 @@
 
     generate_scenarios /tmp/scenarios --count 20 --seed 0
     generate_scenarios /tmp/s --count 1 --robots 6 --tasks 16 --layout rooms --dag joins --stages 3
+    generate_scenarios /tmp/s --count 20 --robots 3 --tasks 10 --layout ~/maps/my_floor.yaml
 
 Each scenario draws its team size (2–16 robots), task count (4–32), layout, DAG kind, stages and
 map size, except what the options fix. Each file goes through the scenario loader's
@@ -29,7 +30,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     parser.add_argument("--seed", type=int, default=0, help="seed of the whole set (default 0)")
     parser.add_argument("--robots", type=int, default=None, help="robots per scenario (2-16)")
     parser.add_argument("--tasks", type=int, default=None, help="tasks per scenario (4-32)")
-    parser.add_argument("--layout", default=None, help=f"map: {', '.join(LAYOUTS)}, shipped, or a shipped map's name")
+    parser.add_argument("--layout", default=None,
+                        help=f"map: {', '.join(LAYOUTS)}, shipped, a shipped map's name, or a map_server YAML file "
+                             "of your own floor (the scenarios refer to it by its absolute path)")
     parser.add_argument("--size", type=float, nargs=2, metavar=("WIDTH", "HEIGHT"), default=None,
                         help="interior of a generated map, m (default 10 x 6)")
     parser.add_argument("--dag", default=None, choices=DAG_KINDS, help="precedence shape")

@@ -68,21 +68,22 @@ TEACHER_EXACT_SECONDS = 5.0
 
 
 def generated_scenarios(count: int, seed: int, out_dir: Path, prefix: str,
-                        robots: Tuple[int, int] = TRAIN_ROBOTS, tasks: Tuple[int, int] = TRAIN_TASKS) -> List[Scenario]:
+                        robots: Tuple[int, int] = TRAIN_ROBOTS, tasks: Tuple[int, int] = TRAIN_TASKS,
+                        layout: Optional[str] = None) -> List[Scenario]:
     """`count` scenarios, scenario k with a team of robots[0]..robots[1] and tasks[0]..tasks[1] tasks
-    drawn from (seed, k) and the rest drawn by the generator (generate_scenarios: layout,
-    precedence, map size)."""
+    drawn from (seed, k) and the rest drawn by the generator (generate_scenarios: layout unless
+    given, e.g. a map file of one's own floor, precedence, map size)."""
     model = load_embedded_settings().travel
     max_leg = load_task_settings().goal_timeout
     draw = random.Random(seed)
     scenarios = []
     for k in range(count):
         base = ScenarioRequest(n_robots=draw.randint(*robots), n_tasks=draw.randint(*tasks), max_leg=max_leg,
-                               name=f"{prefix}_{k:03d}")
+                               name=f"{prefix}_{k:03d}", **({"layout": layout} if layout else {}))
         for attempt in range(GENERATOR_ATTEMPTS):
             try:   # a draw whose legs exceed the goal timeout is drawn again from the next seed
                 scenarios += generate_scenarios(1, seed * 1_000 + k + 100_000 * attempt, out_dir, base, model,
-                                                keep=("n_robots", "n_tasks"))
+                                                keep=("n_robots", "n_tasks") + (("layout",) if layout else ()))
                 break
             except GeneratorError:
                 if attempt == GENERATOR_ATTEMPTS - 1:
@@ -165,6 +166,9 @@ def build_parser() -> argparse.ArgumentParser:
                         help=f"team sizes of the generated scenarios (default {TRAIN_ROBOTS[0]} {TRAIN_ROBOTS[1]})")
     parser.add_argument("--tasks", type=int, nargs=2, default=TRAIN_TASKS, metavar=("MIN", "MAX"),
                         help=f"task counts of the generated scenarios (default {TRAIN_TASKS[0]} {TRAIN_TASKS[1]})")
+    parser.add_argument("--layout", default=None,
+                        help="map of the generated scenarios: rooms, corridors, pillars, shipped, a shipped map's name, "
+                             "or a map_server YAML file of your own floor (default: drawn per scenario)")
     parser.add_argument("--holdout", type=int, default=12, help="generated scenarios that pick the best actor (default 12)")
     parser.add_argument("--seed", type=int, default=0, help="seed of every stage (default 0)")
     parser.add_argument("--preset", default="generalist",
@@ -230,7 +234,7 @@ def train_generalist(args: argparse.Namespace, log: Callable[[str], None] = prin
     out.mkdir(parents=True, exist_ok=True)
     times: Dict[str, float] = {}
     started = time.perf_counter()
-    sizes = {"robots": tuple(args.robots), "tasks": tuple(args.tasks)}
+    sizes = {"robots": tuple(args.robots), "tasks": tuple(args.tasks), "layout": args.layout}
     scenarios = generated_scenarios(args.scenarios, args.seed, out / "scenarios", "train", **sizes)
     if args.lab:
         scenarios += [load_scenario(package_root() / "scenarios" / f"{name}.xml") for name in LAB_SCENARIOS]

@@ -5,10 +5,12 @@
                                  out_dir=Path("/tmp/generated"), travel_model=model)
 
 A scenario is drawn from a seed alone (the same request and seed give the same files):
-- the map: one shipped with the package (maps/*.yaml, `layout="shipped"` or a map name), or a
-  generated one written beside the scenario as map_server YAML + PGM: `rooms` (a grid of rooms
-  with a door in every inner wall), `corridors` (a corridor with rooms off both sides) or
-  `pillars` (a hall with square pillars);
+- the map: one shipped with the package (maps/*.yaml, `layout="shipped"` or a map name), a
+  map_server YAML file of the user's own floor (`layout="/path/floor.yaml"`, referred to by its
+  absolute path, as map_server and the scenario loader read it), or a generated one written
+  beside the scenario as map_server YAML + PGM: `rooms` (a grid of rooms with a door in every
+  inner wall), `corridors` (a corridor with rooms off both sides) or `pillars` (a hall with
+  square pillars);
 - robot starts and task goals on free cells of the map's largest navigable region (at least
   `clearance` from any obstacle, more than navigation's inscribed radius), each at least
   `spacing` (a robot's footprint plus a margin) from every other pose;
@@ -38,7 +40,7 @@ from scipy import ndimage
 
 from marl_mrta.common.paths import package_root
 from marl_mrta.common.robot_names import default_robot_names
-from marl_mrta.model.occupancy_map import FREE, OCCUPIED, MapOrigin, OccupancyMap, load_map, save_map
+from marl_mrta.model.occupancy_map import FREE, OCCUPIED, MapFileError, MapOrigin, OccupancyMap, load_map, save_map
 from marl_mrta.model.scenario import Scenario, ScenarioError, footprint_radius, footprint_spacing, load_scenario
 from marl_mrta.model.travel import TravelModel, nominal_travel_table, suggest_nav_thresholds
 
@@ -51,6 +53,7 @@ WALL = 0.15                # m, wall thickness of generated maps
 DOOR = 1.0                 # m, door width: well above the robot's 0.21 m and navigation's inflation
 ESTIMATED_SPEED = 0.22     # m/s, for straight-line estimates without a travel model
 ESTIMATED_DETOUR = 1.3     # path length ÷ straight line, for those estimates
+REGION_SHRINK = 0.85       # a floor's drawn part, per draw whose legs were too long (own maps)
 
 
 class GeneratorError(ValueError):
@@ -61,7 +64,7 @@ class GeneratorError(ValueError):
 class ScenarioRequest:
     n_robots: int = 4
     n_tasks: int = 8
-    layout: str = "rooms"                # rooms | corridors | pillars | shipped | a shipped map's name (lab)
+    layout: str = "rooms"                # rooms | corridors | pillars | shipped | a shipped map's name (lab) | a map YAML file
     width: float = 10.0                  # m, interior of a generated map
     height: float = 6.0                  # m
     dag: str = "mixed"                   # chains | forks | joins | mixed
@@ -80,8 +83,10 @@ class ScenarioRequest:
             raise GeneratorError(f"robots: {self.n_robots} is not in {MIN_ROBOTS}..{MAX_ROBOTS}")
         if not MIN_TASKS <= self.n_tasks <= MAX_TASKS:
             raise GeneratorError(f"tasks: {self.n_tasks} is not in {MIN_TASKS}..{MAX_TASKS}")
-        if self.layout not in LAYOUTS and self.layout != "shipped" and self.layout not in shipped_maps():
-            raise GeneratorError(f"layout: {self.layout!r} is not one of {', '.join(LAYOUTS + ('shipped',) + tuple(shipped_maps()))}")
+        if (not is_map_file(self.layout) and self.layout not in LAYOUTS and self.layout != "shipped"
+                and self.layout not in shipped_maps()):
+            raise GeneratorError(f"layout: {self.layout!r} is not one of "
+                                 f"{', '.join(LAYOUTS + ('shipped',) + tuple(shipped_maps()))} or a map YAML file")
         if self.dag not in DAG_KINDS:
             raise GeneratorError(f"dag: {self.dag!r} is not one of {', '.join(DAG_KINDS)}")
         if not 1 <= self.stages <= self.n_tasks:
@@ -92,6 +97,16 @@ class ScenarioRequest:
             raise GeneratorError("service_times: need at least one value, none negative")
         if self.spacing < footprint_spacing():
             raise GeneratorError(f"spacing: {self.spacing:g} m is below a robot's footprint ({footprint_spacing():g} m)")
+
+
+def is_map_file(layout: str) -> bool:
+    """A layout that names a map_server YAML file (a floor plan of one's own) rather than a kind."""
+    return layout.endswith((".yaml", ".yml"))
+
+
+def layout_name(layout: str) -> str:
+    """The layout as a scenario name shows it: a map file by its stem (floor.yaml -> floor)."""
+    return Path(layout).stem if is_map_file(layout) else layout
 
 
 def shipped_maps() -> dict:
@@ -198,6 +213,16 @@ def draw_poses(candidates: np.ndarray, count: int, spacing: float, rng: random.R
     raise GeneratorError(f"only {len(chosen)} of {count} poses fit {spacing:g} m apart on this map")
 
 
+def part_of(candidates: np.ndarray, fraction: float, rng: random.Random) -> np.ndarray:
+    """The candidate points within a disc about a random one of them, its radius `fraction` of
+    half the candidates' extent (the diagonal of their bounding box)."""
+    if len(candidates) == 0:
+        return candidates
+    centre = candidates[rng.randrange(len(candidates))]
+    extent = float(np.hypot(*(candidates.max(axis=0) - candidates.min(axis=0))))
+    return candidates[np.hypot(*(candidates - centre).T) <= fraction * extent / 2.0]
+
+
 # ------------------------------------------------------------------ precedence
 
 def stage_sizes(n_tasks: int, stages: int) -> List[int]:
@@ -271,8 +296,9 @@ def generate_scenario(request: ScenarioRequest, seed: int, out_dir: Path,
                       travel_model: Optional[TravelModel] = None, attempts: int = 20) -> Scenario:
     """Draw, write (<out_dir>/<name>.xml, a generated map under <out_dir>/maps/) and load one scenario."""
     request.check()
-    rng = random.Random(f"{seed}:{request}")
-    name = request.name or f"gen_{request.layout}_{request.n_robots}r{request.n_tasks}t_{seed}"
+    # A map file seeds the draw by its name, not where it lies: the same floor and seed, the same draw.
+    rng = random.Random(f"{seed}:{replace(request, layout=layout_name(request.layout))}")
+    name = request.name or f"gen_{layout_name(request.layout)}_{request.n_robots}r{request.n_tasks}t_{seed}"
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     shipped = shipped_maps()
@@ -282,6 +308,13 @@ def generate_scenario(request: ScenarioRequest, seed: int, out_dir: Path,
         map_path = out_dir / "maps" / f"{name}.yaml"
         save_map(grid_map, map_path, comment=f"Generated by marl_mrta.model.generator: {request.layout}, seed {seed}.")
         map_file = f"maps/{name}.yaml"
+    elif is_map_file(request.layout):
+        map_path = Path(request.layout).resolve()
+        try:
+            grid_map = load_map(map_path)
+        except MapFileError as error:
+            raise GeneratorError(f"layout: {error}") from None
+        map_file = str(map_path)
     else:
         key = rng.choice(sorted(shipped)) if request.layout == "shipped" else request.layout
         map_path = shipped[key]
@@ -294,8 +327,17 @@ def generate_scenario(request: ScenarioRequest, seed: int, out_dir: Path,
     labels = [(f"{letters[s]}{k + 1}", letters[s]) for s in range(len(sizes)) for k in range(sizes[s])]
     services = [rng.choice(request.service_times) for _ in labels]
     path = out_dir / f"{name}.xml"
+    own_floor = is_map_file(request.layout)
     for attempt in range(attempts):
-        poses = draw_poses(candidates, request.n_robots + request.n_tasks, request.spacing, rng)
+        # A floor of one's own cannot shrink as a generated map does: when its legs are too long,
+        # the next draws keep to a smaller part of it (a disc about a random free cell).
+        pool = candidates if attempt == 0 or not own_floor else part_of(candidates, REGION_SHRINK ** attempt, rng)
+        try:
+            poses = draw_poses(pool, request.n_robots + request.n_tasks, request.spacing, rng)
+        except GeneratorError:
+            if pool is candidates:
+                raise
+            continue
         robots, goals = poses[:request.n_robots], poses[request.n_robots:]
         tasks = [(tid, cat, goal, service) for (tid, cat), goal, service in zip(labels, goals, services)]
         timeout, nav = _timing(_estimated_legs(poses), request.n_robots, services)
@@ -313,7 +355,7 @@ def generate_scenario(request: ScenarioRequest, seed: int, out_dir: Path,
         path.write_text(scenario_xml(name, map_file, robots, tasks, preds, timeout, nav, comment, request.navigation))
         return load_scenario(path)
     raise GeneratorError(f"{name}: no draw in {attempts} keeps every leg within {request.max_leg:g} s; "
-                         "use a smaller map or a larger max_leg")
+                         "use a smaller map or a larger max_leg (the goal timeout, config/task.yaml)")
 
 
 def generate_scenarios(count: int, seed: int, out_dir: Path, base: ScenarioRequest = ScenarioRequest(),
