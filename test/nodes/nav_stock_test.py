@@ -3,7 +3,7 @@
 map_server of ros-planning/navigation) in the simulator on the lab map, in real time (the stock
 nodes take no part in the lock-step). One robot drives the first goals of the tour of
 nav_goals_test.py; each succeeds within the tour's tolerances, and no node of the graph logs at
-ERROR level or above (/rosout_agg).
+ERROR level or above (/rosout).
 
 Without the stock packages (``~stock_available`` false, set by the .test file) the test is
 skipped, and the skip is written into the JUnit result file as such (nav_goals_test's

@@ -1,7 +1,8 @@
 """What the rostests of the stock navigation stack share (nav_stock_test.py,
-task_stock_amcl_test.py, task_stock_lockstep_test.py): the skip when the stock packages are
-missing (``~stock_available`` false, derived by the .test file), every ERROR line the graph logs
-(/rosout_agg), that a node of the graph is the stock one (not the built-in drop-in under the same
+task_stock_amcl_test.py, task_stock_lockstep_test.py, task_stock_cancel_test.py): the skip when
+the stock packages are missing (``~stock_available`` false, derived by the .test file), every
+ERROR line the graph logs (on /rosout: rostest starts no rosout node, so /rosout_agg carries
+nothing), that a node of the graph is the stock one (not the built-in drop-in under the same
 name), and exact episodes through the evaluation command."""
 import json
 import os
@@ -31,7 +32,7 @@ class StockGraphCase(unittest.TestCase):
         cls.errors = []
         cls.lock = threading.Lock()
         if cls.available:
-            rospy.Subscriber("/rosout_agg", Log, cls.on_log, queue_size=1000)
+            rospy.Subscriber("/rosout", Log, cls.on_log, queue_size=1000)
 
     @classmethod
     def on_log(cls, msg):
@@ -44,7 +45,7 @@ class StockGraphCase(unittest.TestCase):
             self.skipTest(UNAVAILABLE)
 
     def assert_no_error_logged(self):
-        time.sleep(1.0)  # wall: the last messages of /rosout_agg arrive
+        time.sleep(1.0)  # wall: the last messages of /rosout arrive
         with self.lock:
             self.assertEqual([], self.errors, "logged at ERROR level:\n  " + "\n  ".join(self.errors))
 

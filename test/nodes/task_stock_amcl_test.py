@@ -3,7 +3,7 @@
 (tasks.launch nav:=stock localization:=amcl, real time). The evaluation command runs it through
 the task manager, which re-initialises each robot's amcl at the reset and waits for its estimate;
 the episode completes every task in precedence order (logic-consistent), and no node of the graph
-logs at ERROR level or above (/rosout_agg). Nothing here asserts speed.
+logs at ERROR level or above (/rosout). Nothing here asserts speed.
 
 Without the stock packages (``~stock_available`` false) the test is skipped, and the skip is
 written into the JUnit result file as such (nav_goals_test's rosrun_marking_skips)."""

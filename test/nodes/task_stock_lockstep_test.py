@@ -34,7 +34,7 @@ class StockLockstepEpisodeTest(StockGraphCase):
         cls.tmp = tempfile.mkdtemp(prefix="task_stock_lockstep_")
         cls.late = []
         if cls.available:
-            rospy.Subscriber("/rosout_agg", Log, cls.on_warning, queue_size=1000)
+            rospy.Subscriber("/rosout", Log, cls.on_warning, queue_size=1000)
 
     @classmethod
     def on_warning(cls, msg):

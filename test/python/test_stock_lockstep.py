@@ -81,6 +81,47 @@ def test_a_cycle_without_a_command_is_answered_after_the_wait_then_every_tick_is
     assert r.answer(11.01).next_stamp == pytest.approx(5 / RATE, abs=1e-5)
 
 
+def test_a_move_base_without_a_path_is_not_waited_for_until_it_commands_or_plans():
+    """No path to the goal (navfn publishes the empty plan): move_base plans again and clears its
+    costmaps, sending no command, until a recovery behaviour turns the robot. Each tick then
+    waited the full command_wait (sim time at a tenth of its pace); after one missed control tick
+    they are answered at once. A goal's first plan is still waited for, however long it takes."""
+    r = rule(command_wait=0.5)
+    tick(r, 0)
+    r.on_goal()
+    wall = 10.0
+    for index in (2, 3, 4, 5):                    # no plan yet (a loaded machine): each waited for
+        r.on_tick(index, index / RATE, wall)
+        assert r.answer(wall) is None
+        wall += 0.5
+        assert r.answer(wall).tick == index
+    assert r.timeouts == 4 and not r.quiet
+    r.on_plan(empty=True)                         # the planner found no path
+    assert r.quiet
+    for index in range(6, 30):                    # answered at once
+        r.on_tick(index, index / RATE, wall)
+        answer = r.answer(wall)
+        assert answer is not None and answer.next_stamp == 0.0
+    assert r.timeouts == 4
+    r.on_command(is_zero=False)                   # a recovery behaviour turns the robot
+    assert not r.quiet
+    assert tick(r, 30, wall).next_stamp == pytest.approx(31 / RATE, abs=1e-5)
+    r.on_tick(31, 31 / RATE, wall)
+    assert r.answer(wall) is None                 # its commands are waited for again
+    r.on_command(is_zero=False)
+    assert r.answer(wall).cmd_vel_count == 2
+    r.on_tick(33, 33 / RATE, wall)                # the turn is over, still no path: one miss, then quiet
+    assert r.answer(wall + 0.5) is not None and r.quiet
+    r.on_plan(empty=False)                        # a path at last: the controller's ticks are waited for
+    assert not r.quiet
+    r.on_tick(34, 34 / RATE, wall)
+    assert r.answer(wall) is None
+    r.on_result(34 / RATE)
+    r.on_goal()                                   # a new goal starts with a clean slate
+    r.on_plan(empty=True)
+    assert not r.quiet
+
+
 def test_a_result_counts_on_the_tick_of_its_stamp_and_ends_the_waiting():
     r = rule()
     tick(r, 0)

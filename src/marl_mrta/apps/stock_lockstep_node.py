@@ -8,7 +8,7 @@ every answer also waits for amcl's map -> odom of the latest scan. Parameters (w
 ~command_wait (default 0.5), ~result_wait (0.05), ~idle_wait (0.005); ~wait_for_amcl (false).
 move_base's controller_frequency, amcl's transform_tolerance and the simulator's physics_rate
 are read from their nodes. Subscribes to cmd_vel, move_base/goal, move_base/result and
-/simulator/tick (and /tf with amcl); publishes /simulator/lockstep_ack.
+/simulator/tick, move_base's global plans (and /tf with amcl); publishes /simulator/lockstep_ack.
 """
 import threading
 import time
@@ -17,6 +17,7 @@ import rospy
 from geometry_msgs.msg import Twist
 from actionlib_msgs.msg import GoalStatusArray
 from move_base_msgs.msg import MoveBaseActionGoal, MoveBaseActionResult
+from nav_msgs.msg import Path
 from tf2_msgs.msg import TFMessage
 
 from marl_mrta.common.config import ConfigError, node_parameters
@@ -35,6 +36,9 @@ class StockLockstepNode:
         rospy.Subscriber("cmd_vel", Twist, self._on_command, queue_size=100, tcp_nodelay=True)
         rospy.Subscriber("move_base/goal", MoveBaseActionGoal, self._on_goal, queue_size=10, tcp_nodelay=True)
         rospy.Subscriber("move_base/result", MoveBaseActionResult, self._on_result, queue_size=10, tcp_nodelay=True)
+        # The global planner's plans, "move_base/<plugin>/plan" (navfn/NavfnROS: move_base/NavfnROS/plan).
+        planner = str(rospy.get_param("move_base/base_global_planner", "navfn/NavfnROS")).split("/")[-1]
+        rospy.Subscriber("move_base/%s/plan" % planner, Path, self._on_plan, queue_size=10, tcp_nodelay=True)
         self._status_sub = rospy.Subscriber("move_base/status", GoalStatusArray, lambda _msg: None, queue_size=1)
         self._up = False
         if rule.localization_tolerance > 0.0:   # stock amcl: its map -> odom is waited for
@@ -60,6 +64,11 @@ class StockLockstepNode:
     def _on_command(self, msg: Twist) -> None:
         with self._changed:
             self.rule.on_command(msg.linear.x == 0.0 and msg.angular.z == 0.0)
+            self._changed.notify_all()
+
+    def _on_plan(self, msg: Path) -> None:
+        with self._changed:
+            self.rule.on_plan(not msg.poses)
             self._changed.notify_all()
 
     def _on_tf(self, msg: TFMessage) -> None:
@@ -140,4 +149,7 @@ def main() -> int:
     rospy.spin()
     if rule.timeouts:
         rospy.loginfo("%s: %d control ticks answered without a cmd_vel", rospy.get_name(), rule.timeouts)
+    if rule.quiet_ticks:
+        rospy.loginfo("%s: %d ticks answered at once while move_base had no path to its goal", rospy.get_name(),
+                      rule.quiet_ticks)
     return 0

@@ -363,8 +363,27 @@ class RosExecutor:
         return stamp
 
     def _cancel_running(self) -> None:
-        """Cancels every goal still running and waits until move_base has stopped it."""
-        cancel_running(self.bases, self.lost_after)
+        """Cancels every goal still running and waits until move_base has stopped it. The built-in
+        move_base stops at once, within the paused tick. Stock move_base stops only between its
+        recovery behaviours, which run on sim time (rotate_recovery turns a full circle): a goal
+        not stopped within lost_after lets sim time run on until it is, up to cancel_wait."""
+        try:
+            cancel_running(self.bases, self.lost_after)
+            return
+        except SimulatorLost:
+            pass
+        running = [i for i, base in enumerate(self.bases) if not base.idle]
+        limit = self.clock.now() + self.settings.cancel_wait
+        rospy.logwarn("move_base of %s: a cancelled goal still runs (a recovery behaviour); sim time runs on "
+                      "until it ends, at most %.0f s", ", ".join(self.namespaces[i] for i in running),
+                      self.settings.cancel_wait)
+        self._run_until(limit)
+        ended = self.clock.wait_until(lambda: all(self.bases[i].idle for i in running), limit)
+        self._pause(True)
+        if not ended:
+            raise SimulatorLost("move_base of " + ", ".join(self.namespaces[i] for i in running if not self.bases[i].idle)
+                                + f" did not end a cancelled goal within {self.settings.cancel_wait:.0f} s of sim time")
+        self.sim.wait_caught_up(*self.sim.step(0))
 
     def _aborted(self, goals: Sequence[Optional[int]], t0: Optional[float], reason: str) -> StepOutcome:
         """The step cannot go on: stop what can be stopped, report every robot as failed."""

@@ -40,6 +40,8 @@ class RosExecutorSettings:
     goal_timeout: float = 60.0          # s of sim time before a goal counts as failed (config/task.yaml)
     simulator_lost_after: float = 3.0   # s of wall time without an answer -> episode aborted (per ROBOTS_PER_LOST_AFTER)
     graph_wait: float = 60.0            # s of wall time to wait for the simulator and move_base at start
+    cancel_wait: float = 15.0           # s (sim time; real mode: wall) for a cancelled goal to end: stock
+                                        # move_base ends it only between recovery behaviours
     align_period: float = 1.0           # s of sim time: steps start on multiples of it (0: no alignment)
     advance_in_lockstep: bool = False   # the paused simulator runs ticks through its lock-step instead of stepping them at once
     map_frame: str = "map"
@@ -108,6 +110,7 @@ def read_manager_settings(params: Dict[str, Any], namespace: str,
         robot_prefix=prefix, arena=p.integer("arena", minimum=0),
         simulator_lost_after=p.number("simulator_lost_after", above=0.0),
         graph_wait=p.number("graph_wait", above=0.0),
+        cancel_wait=p.number("cancel_wait", above=0.0),
         align_period=p.number("align_period", minimum=0.0),
         advance_in_lockstep=p.boolean("advance_in_lockstep"),
         map_frame=p.string("map_frame", allow_empty=False),

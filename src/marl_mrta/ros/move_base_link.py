@@ -147,4 +147,6 @@ def cancel_running(bases: Sequence["MoveBaseLink"], timeout_wall: float) -> None
     running = [base for base in bases if not base.idle]
     for base in running:
         base.cancel()
-    wait_wall(lambda: all(base.idle for base in running), timeout_wall, "move_base did not confirm a cancelled goal")
+    wait_wall(lambda: all(base.idle for base in running), timeout_wall,
+              lambda: "move_base of " + ", ".join(base.namespace.lstrip("/") for base in running if not base.idle)
+              + " did not confirm a cancelled goal")

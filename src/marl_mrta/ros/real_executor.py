@@ -132,7 +132,9 @@ class RealExecutor:
         if failed or self.monitor.tripped:
             return self._aborted(goals, t0, self.monitor.reason or failed)
         try:
-            cancel_running(self.bases, self.settings.simulator_lost_after)   # at the deadline: a goal timeout
+            # At the deadline: a goal timeout. Stock move_base ends a goal only between recovery
+            # behaviours (a turn in place takes about 7 s), so a cancel gets cancel_wait.
+            cancel_running(self.bases, self.settings.cancel_wait)
         except SimulatorLost as lost:
             return self._aborted(goals, t0, str(lost))
         robots = []
@@ -193,7 +195,7 @@ class RealExecutor:
     def _cancel_own(self) -> None:
         """This executor's goals still running, cancelled one by one (a cancel-all could overtake
         the goals sent next on their own connection and cancel them too: only a stop uses it)."""
-        cancel_running(self.bases, self.settings.simulator_lost_after)
+        cancel_running(self.bases, self.settings.cancel_wait)
         for base in self.bases:
             base.forget()
 

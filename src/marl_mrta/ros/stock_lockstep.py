@@ -7,7 +7,12 @@ loop runs on sim time, though: while it pursues a goal it wakes every control pe
 cmd_vel. So the robot's velocity command for a control tick is its answer to that tick: the
 relay holds the simulator on a control tick until the command has come (or `command_wait` wall
 seconds have passed: move_base also has cycles without a command, while it plans or clears its
-costmaps), and lets it run through the ticks in between. Without a goal it answers every tick
+costmaps), and lets it run through the ticks in between. When its global planner has found no
+path to the goal (it publishes the empty plan) and a control tick has passed without a command,
+move_base sends none until planner_patience ends in a recovery behaviour or a plan is found: the
+ticks are then answered at once until a command or a plan comes, instead of each waiting
+`command_wait` (a tenth of sim time's pace). A goal's first plan is waited for as before: it may
+take long on a loaded machine. Without a goal it answers every tick
 after `idle_wait` wall seconds: move_base's costmaps update in threads of their own, which
 nothing waits for, and a burst of ticks (the task manager stepping to a whole second after a
 reset) would otherwise leave them behind the robots' poses when the next goals come. With a
@@ -60,6 +65,9 @@ class StockLockstepRule:
         self.goal_end_tick = 0
         self.control_stamp: Optional[float] = None   # next control time of the active goal; None: not known
         self.timeouts = 0                 # control ticks answered without a command (for the log)
+        self.silent_since: Optional[float] = None   # stamp of the first command-less answer since a command
+        self.plan_failed = False          # the global planner's latest plan for this goal was empty
+        self.quiet_ticks = 0              # ticks answered at once while move_base had no path (for the log)
         self._last_stamp = 0.0            # stamp of the latest tick seen
         self._tick: Optional[int] = None  # the tick being answered
         self._answered: Optional[TickAnswer] = None
@@ -78,10 +86,14 @@ class StockLockstepRule:
         if not self.goal_active:   # a goal that replaces a running one keeps move_base's loop
             self.control_stamp = self._last_stamp + self.control_period
         self.goal_active = True
+        self.silent_since = None
+        self.plan_failed = False
 
     def on_result(self, stamp: float) -> None:
         self.goal_active = False
         self.control_stamp = None
+        self.silent_since = None
+        self.plan_failed = False
         self.goal_end_tick = max(self.goal_end_tick, self.tick_of(stamp))
 
     def on_localization(self, stamp: float) -> None:
@@ -95,7 +107,19 @@ class StockLockstepRule:
             return True
         return self.localized_stamp >= self._scan_stamp + self.localization_tolerance - STAMP_SLACK
 
+    def on_plan(self, empty: bool) -> None:
+        """move_base's global planner published a plan (empty: it found no path)."""
+        self.plan_failed = empty
+
+    @property
+    def quiet(self) -> bool:
+        """move_base pursues a goal it has no path to and has let a control tick pass without a command."""
+        return self.goal_active and self.plan_failed and self.silent_since is not None
+
     def on_command(self, is_zero: bool) -> None:
+        if self.quiet:   # its control loop runs again: the next command one period after this one
+            self.control_stamp = self._last_stamp + self.control_period
+        self.silent_since = None
         self.commands += 1
         self._last_command_zero = is_zero
 
@@ -114,7 +138,10 @@ class StockLockstepRule:
         self._tick, self._answered = tick, None
         self._last_stamp = stamp
         self._scan_stamp = scan_stamp
-        due = self.goal_active and (self.control_stamp is None or stamp >= self.control_stamp - STAMP_SLACK)
+        quiet = self.quiet
+        self.quiet_ticks += quiet
+        due = self.goal_active and not quiet and (
+            self.control_stamp is None or stamp >= self.control_stamp - STAMP_SLACK)
         self._waiting = due
         self._deadline = wall_now + self.command_wait
         self._idle_until = wall_now + self.idle_wait if not self.goal_active else wall_now
@@ -136,6 +163,8 @@ class StockLockstepRule:
                 if wall_now < self._deadline:
                     return None
                 self.timeouts += 1
+                if self.silent_since is None:
+                    self.silent_since = self._last_stamp
                 self.control_stamp = None   # a cycle without a command: look for the next on every tick
             else:
                 if self._last_command_zero and self.goal_active:
