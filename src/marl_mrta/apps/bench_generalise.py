@@ -187,12 +187,12 @@ def bench(args: argparse.Namespace, log: Callable[[str], None] = print) -> Dict[
     # A part not run (--finetune 0, --mappo 0) has no figure, rather than a mean of nothing.
     if figures["finetuned"]["n"]:
         headline.append({"figure": f"after {args.finetune_seconds:g} s of fine-tuning / best bound, mean of "
-                                   f"{figures['finetuned']['n']}", "unit": "", "value": round(figures["finetuned"]["mean"], 4),
-                         "goal": f"<= {GOALS['finetuned_mean']}"})
+                                   f"{figures['finetuned']['n']}", "unit": "",
+                         "value": round(figures["finetuned"]["mean"], 4), "goal": f"<= {GOALS['finetuned_mean']}"})
     if figures["mappo"]["n"]:
         headline.append({"figure": f"per-scenario MAPPO ({args.mappo_preset}, {args.mappo_seconds:g} s) / best bound, "
-                                   f"mean of {figures['mappo']['n']}", "unit": "", "value": round(figures["mappo"]["mean"], 4),
-                         "goal": ""})
+                                   f"mean of {figures['mappo']['n']}", "unit": "",
+                         "value": round(figures["mappo"]["mean"], 4), "goal": ""})
     headline += [
         {"figure": "lab zero-shot / optimum, worst of lab_2r/3r/4r", "unit": "",
          "value": round(max(figures["lab_zero_shot"].values()), 4), "goal": "1.0"},

@@ -167,8 +167,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--tasks", type=int, nargs=2, default=TRAIN_TASKS, metavar=("MIN", "MAX"),
                         help=f"task counts of the generated scenarios (default {TRAIN_TASKS[0]} {TRAIN_TASKS[1]})")
     parser.add_argument("--layout", default=None,
-                        help="map of the generated scenarios: rooms, corridors, pillars, shipped, a shipped map's name, "
-                             "or a map_server YAML file of your own floor (default: drawn per scenario)")
+                        help="map of the generated scenarios: rooms, corridors, pillars, shipped, a shipped map's "
+                             "name, or a map_server YAML file of your own floor (default: drawn per scenario)")
     parser.add_argument("--holdout", type=int, default=12, help="generated scenarios that pick the best actor (default 12)")
     parser.add_argument("--seed", type=int, default=0, help="seed of every stage (default 0)")
     parser.add_argument("--preset", default="generalist",

@@ -64,7 +64,8 @@ class GeneratorError(ValueError):
 class ScenarioRequest:
     n_robots: int = 4
     n_tasks: int = 8
-    layout: str = "rooms"                # rooms | corridors | pillars | shipped | a shipped map's name (lab) | a map YAML file
+    layout: str = "rooms"                # rooms | corridors | pillars | shipped | a shipped map's name (lab)
+                                         # | a map_server YAML file (a floor of one's own)
     width: float = 10.0                  # m, interior of a generated map
     height: float = 6.0                  # m
     dag: str = "mixed"                   # chains | forks | joins | mixed

@@ -381,8 +381,9 @@ class RosExecutor:
         ended = self.clock.wait_until(lambda: all(self.bases[i].idle for i in running), limit)
         self._pause(True)
         if not ended:
-            raise SimulatorLost("move_base of " + ", ".join(self.namespaces[i] for i in running if not self.bases[i].idle)
-                                + f" did not end a cancelled goal within {self.settings.cancel_wait:.0f} s of sim time")
+            still = ", ".join(self.namespaces[i] for i in running if not self.bases[i].idle)
+            raise SimulatorLost(f"move_base of {still} did not end a cancelled goal within "
+                                f"{self.settings.cancel_wait:.0f} s of sim time")
         self.sim.wait_caught_up(*self.sim.step(0))
 
     def _aborted(self, goals: Sequence[Optional[int]], t0: Optional[float], reason: str) -> StepOutcome:
