@@ -47,7 +47,7 @@ from marl_mrta.mappo.config import load_config, resolve_preset
 from marl_mrta.mappo.policy import PolicyFileError, SetActorPolicy, load_policy, read_actor_file
 from marl_mrta.mappo.runner import RunError, Runner
 from marl_mrta.mappo.training_env import embedded_factory, set_view_pool
-from marl_mrta.model.generator import GeneratorError
+from marl_mrta.model.generator import LAYOUT_HELP, GeneratorError
 from marl_mrta.model.scenario import Scenario, ScenarioError, load_scenario
 
 #: Goals of the issue, by figure.
@@ -95,8 +95,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--robots", type=int, nargs=2, default=(2, 4), metavar=("MIN", "MAX"), help="team sizes (default 2 4)")
     parser.add_argument("--tasks", type=int, nargs=2, default=(4, 12), metavar=("MIN", "MAX"), help="task counts (default 4 12)")
     parser.add_argument("--layout", default=None,
-                        help="map of the test scenarios: rooms, corridors, pillars, shipped, a shipped map's name, "
-                             "or a map_server YAML file of your own floor (default: drawn per scenario)")
+                        help=f"map of the test scenarios: {LAYOUT_HELP}; default: drawn per scenario")
     parser.add_argument("--finetune", type=int, default=10,
                         help="test scenarios (the first ones) also fine-tuned, besides the lab ones (default 10)")
     parser.add_argument("--finetune-seconds", type=float, default=60.0, help="fine-tuning wall time (default 60)")

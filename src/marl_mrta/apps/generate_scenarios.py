@@ -19,7 +19,7 @@ from typing import Optional, Sequence
 
 from marl_mrta.common.config import ConfigError
 from marl_mrta.env.settings import load_embedded_settings, load_task_settings
-from marl_mrta.model.generator import DAG_KINDS, LAYOUTS, GeneratorError, ScenarioRequest, generate_scenarios
+from marl_mrta.model.generator import DAG_KINDS, LAYOUT_HELP, GeneratorError, ScenarioRequest, generate_scenarios
 from marl_mrta.model.scenario import ScenarioError
 
 
@@ -30,9 +30,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     parser.add_argument("--seed", type=int, default=0, help="seed of the whole set (default 0)")
     parser.add_argument("--robots", type=int, default=None, help="robots per scenario (2-16)")
     parser.add_argument("--tasks", type=int, default=None, help="tasks per scenario (4-32)")
-    parser.add_argument("--layout", default=None,
-                        help=f"map: {', '.join(LAYOUTS)}, shipped, a shipped map's name, or a map_server YAML file "
-                             "of your own floor (the scenarios refer to it by its absolute path)")
+    parser.add_argument("--layout", default=None, help=f"map: {LAYOUT_HELP}")
     parser.add_argument("--size", type=float, nargs=2, metavar=("WIDTH", "HEIGHT"), default=None,
                         help="interior of a generated map, m (default 10 x 6)")
     parser.add_argument("--dag", default=None, choices=DAG_KINDS, help="precedence shape")

@@ -52,8 +52,8 @@ from marl_mrta.mappo.runner import RunError, Runner, make_deterministic
 from marl_mrta.mappo.set_networks import SetActor
 from marl_mrta.mappo.set_view import SetView
 from marl_mrta.mappo.training_env import set_view_pool
-from marl_mrta.model.generator import (MAX_ROBOTS, MAX_TASKS, MIN_ROBOTS, MIN_TASKS, GeneratorError, ScenarioRequest,
-                                       generate_scenarios)
+from marl_mrta.model.generator import (LAYOUT_HELP, MAX_ROBOTS, MAX_TASKS, MIN_ROBOTS, MIN_TASKS, GeneratorError,
+                                       ScenarioRequest, generate_scenarios)
 from marl_mrta.model.scenario import Scenario, ScenarioError, load_scenario
 
 #: Teams and task counts the generalist is trained on by default (the generator offers 2-16 robots, 4-32 tasks).
@@ -167,8 +167,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--tasks", type=int, nargs=2, default=TRAIN_TASKS, metavar=("MIN", "MAX"),
                         help=f"task counts of the generated scenarios (default {TRAIN_TASKS[0]} {TRAIN_TASKS[1]})")
     parser.add_argument("--layout", default=None,
-                        help="map of the generated scenarios: rooms, corridors, pillars, shipped, a shipped map's "
-                             "name, or a map_server YAML file of your own floor (default: drawn per scenario)")
+                        help=f"map of the generated scenarios: {LAYOUT_HELP}; default: drawn per scenario")
     parser.add_argument("--holdout", type=int, default=12, help="generated scenarios that pick the best actor (default 12)")
     parser.add_argument("--seed", type=int, default=0, help="seed of every stage (default 0)")
     parser.add_argument("--preset", default="generalist",

@@ -45,6 +45,9 @@ from marl_mrta.model.scenario import Scenario, ScenarioError, footprint_radius, 
 from marl_mrta.model.travel import TravelModel, nominal_travel_table, suggest_nav_thresholds
 
 LAYOUTS = ("rooms", "corridors", "pillars")
+#: What a layout may be, for the command lines' help.
+LAYOUT_HELP = ("rooms, corridors, pillars, shipped, a shipped map's name, or a map_server YAML file of your own "
+               "floor (its scenarios refer to it by its absolute path)")
 DAG_KINDS = ("chains", "forks", "joins", "mixed")
 MIN_ROBOTS, MAX_ROBOTS = 2, 16
 MIN_TASKS, MAX_TASKS = 4, 32

@@ -65,7 +65,7 @@ class StockLockstepRule:
         self.goal_end_tick = 0
         self.control_stamp: Optional[float] = None   # next control time of the active goal; None: not known
         self.timeouts = 0                 # control ticks answered without a command (for the log)
-        self.silent_since: Optional[float] = None   # stamp of the first command-less answer since a command
+        self.silent = False               # a control tick was answered without a command since the last one
         self.plan_failed = False          # the global planner's latest plan for this goal was empty
         self.quiet_ticks = 0              # ticks answered at once while move_base had no path (for the log)
         self._last_stamp = 0.0            # stamp of the latest tick seen
@@ -86,13 +86,13 @@ class StockLockstepRule:
         if not self.goal_active:   # a goal that replaces a running one keeps move_base's loop
             self.control_stamp = self._last_stamp + self.control_period
         self.goal_active = True
-        self.silent_since = None
+        self.silent = False
         self.plan_failed = False
 
     def on_result(self, stamp: float) -> None:
         self.goal_active = False
         self.control_stamp = None
-        self.silent_since = None
+        self.silent = False
         self.plan_failed = False
         self.goal_end_tick = max(self.goal_end_tick, self.tick_of(stamp))
 
@@ -114,12 +114,12 @@ class StockLockstepRule:
     @property
     def quiet(self) -> bool:
         """move_base pursues a goal it has no path to and has let a control tick pass without a command."""
-        return self.goal_active and self.plan_failed and self.silent_since is not None
+        return self.goal_active and self.plan_failed and self.silent
 
     def on_command(self, is_zero: bool) -> None:
         if self.quiet:   # its control loop runs again: the next command one period after this one
             self.control_stamp = self._last_stamp + self.control_period
-        self.silent_since = None
+        self.silent = False
         self.commands += 1
         self._last_command_zero = is_zero
 
@@ -163,8 +163,7 @@ class StockLockstepRule:
                 if wall_now < self._deadline:
                     return None
                 self.timeouts += 1
-                if self.silent_since is None:
-                    self.silent_since = self._last_stamp
+                self.silent = True
                 self.control_stamp = None   # a cycle without a command: look for the next on every tick
             else:
                 if self._last_command_zero and self.goal_active:
