@@ -161,12 +161,20 @@ MapYaml readMapYaml(const std::string& yaml_path) {
   return out;
 }
 
-std::vector<int8_t> occupancyFromImage(const GrayImage& image, const MapYaml& params) {
+std::vector<int8_t> occupancyFromImage(const MapImage& image, const MapYaml& params) {
   std::vector<int8_t> cells(static_cast<size_t>(image.width) * image.height);
+  const int channels = image.channels;
+  // As map_server: alpha is averaged in with the colours in trinary mode, and its "alpha" is the
+  // last channel, an RGB pixel's blue included.
+  const int averaged = (params.mode == MapMode::kTrinary || channels != 4) ? channels : channels - 1;
   for (int row = 0; row < image.height; ++row) {
     const int cy = image.height - 1 - row;  // the image's top row is the grid's last row
     for (int cx = 0; cx < image.width; ++cx) {
-      double mean = image.pixels[static_cast<size_t>(row) * image.width + cx];
+      const uint8_t* pixel = &image.pixels[(static_cast<size_t>(row) * image.width + cx) * channels];
+      int sum = 0;
+      for (int k = 0; k < averaged; ++k) sum += pixel[k];
+      double mean = sum / static_cast<double>(averaged);
+      const int alpha = channels == 1 ? 1 : pixel[channels - 1];
       if (params.negate) mean = 255.0 - mean;
       // Truncation to an unsigned byte, then to int8, as map_server stores it.
       uint8_t value = 0;
@@ -178,7 +186,7 @@ std::vector<int8_t> occupancyFromImage(const GrayImage& image, const MapYaml& pa
           value = 100;
         } else if (occ < params.free_thresh) {
           value = 0;
-        } else if (params.mode == MapMode::kTrinary) {
+        } else if (params.mode == MapMode::kTrinary || alpha < 1) {
           value = 255;  // -1 as int8
         } else {
           const double ratio = (occ - params.free_thresh) / (params.occupied_thresh - params.free_thresh);
@@ -193,9 +201,9 @@ std::vector<int8_t> occupancyFromImage(const GrayImage& image, const MapYaml& pa
 
 OccupancyMap loadMap(const std::string& yaml_path) {
   const MapYaml params = readMapYaml(yaml_path);
-  GrayImage image;
+  MapImage image;
   try {
-    image = readPgm(params.image_path);
+    image = readMapImage(params.image_path);
   } catch (const MapError& e) {
     // A missing image is a problem of the YAML's `image` field; a bad image of the image file.
     if (e.field() == "file") throw MapError(yaml_path, "image", "'" + params.image_path + "': " + e.problem());

@@ -16,13 +16,14 @@ class PgmParser {
  public:
   PgmParser(const std::string& path, std::string bytes) : path_(path), bytes_(std::move(bytes)) {}
 
-  GrayImage parse() {
+  MapImage parse() {
     if (bytes_.size() < 2 || bytes_[0] != 'P' || (bytes_[1] != '5' && bytes_[1] != '2')) {
-      throw MapError(path_, "header", "not a PGM file (expected magic P5 or P2, found '" + bytes_.substr(0, 2) + "')");
+      throw MapError(path_, "header",
+                     "not a PGM or PNG file (expected magic P5 or P2, or a PNG, found '" + bytes_.substr(0, 2) + "')");
     }
     const bool binary = bytes_[1] == '5';
     pos_ = 2;
-    GrayImage image;
+    MapImage image;
     image.width = static_cast<int>(headerNumber("width", 1, 1 << 20));
     image.height = static_cast<int>(headerNumber("height", 1, 1 << 20));
     const long maxval = headerNumber("maxval", 1, 65535);
@@ -112,7 +113,7 @@ class PgmParser {
 
 }  // namespace
 
-GrayImage readPgm(const std::string& path) {
+MapImage readPgm(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw MapError(path, "file", std::string("cannot open (") + std::strerror(errno) + ")");
   std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());

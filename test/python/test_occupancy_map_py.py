@@ -143,8 +143,11 @@ def test_bad_images(tmp_path):
     (tmp_path / "m.pgm").write_bytes(b"P5\n2 1\n255\n\x00")
     with pytest.raises(MapFileError, match=r"m\.pgm: PGM data: expected 2 bytes, got 1"):
         load_map(path)
-    (tmp_path / "m.pgm").write_bytes(b"\x89PNG\r\n\x1a\n....")
-    with pytest.raises(MapFileError, match=r"m\.pgm: PGM header: not a PGM image"):
+    (tmp_path / "m.pgm").write_bytes(b"\x89PNG\r\n\x1a\n....")   # read as a PNG, whatever its name
+    with pytest.raises(MapFileError, match=r"m\.pgm: PNG: "):
+        load_map(path)
+    (tmp_path / "m.pgm").write_bytes(b"\xff\xd8\xff\xe0 a JPEG")
+    with pytest.raises(MapFileError, match=r"m\.pgm: PGM header: not a PGM or PNG image"):
         load_map(path)
     (tmp_path / "m.pgm").write_bytes(b"P5\n2 1\n65535\n\x00\x00\x00\x00")
     with pytest.raises(MapFileError, match=r"only 8-bit images"):

@@ -1,4 +1,4 @@
-// Occupancy maps in map_server format (YAML + PGM), loaded without ROS.
+// Occupancy maps in map_server format (YAML + PGM or PNG), loaded without ROS.
 //
 // The semantics are map_server's (noetic): the image path is relative to the YAML file,
 // occ = (255 - mean) / 255 (mean inverted first when `negate` is set), trinary / scale / raw
@@ -69,10 +69,13 @@ struct MapYaml {
   MapMode mode = MapMode::kTrinary;
 };
 
-// An 8-bit grey image, row-major, row 0 at the top (as stored in the file).
-struct GrayImage {
+// A map's image as map_server's loader (SDL_image) hands it over: 8-bit samples, row-major, row 0
+// at the top (as stored in the file), `channels` per pixel: 1 (grey), 3 (RGB) or 4 (RGBA; a PNG's
+// grey + alpha arrives as RGBA).
+struct MapImage {
   int width = 0;
   int height = 0;
+  int channels = 1;
   std::vector<uint8_t> pixels;
 };
 
@@ -81,10 +84,16 @@ OccupancyMap loadMap(const std::string& yaml_path);
 
 // The steps of loadMap, for tools and tests.
 MapYaml readMapYaml(const std::string& yaml_path);
+// The image of a map, PGM or PNG by its first bytes. Throws MapError.
+MapImage readMapImage(const std::string& path);
 // Binary (P5) or ASCII (P2) PGM; samples scaled to 0..255 when maxval differs. Throws MapError.
-GrayImage readPgm(const std::string& path);
+MapImage readPgm(const std::string& path);
+// PNG: grey (1-, 2- and 4-bit scaled to 0..255), grey + alpha (as RGBA), RGB, RGBA; 16-bit samples
+// keep their high byte. A palette image is refused (map_server would read its indices as grey
+// values). Throws MapError.
+MapImage readPng(const std::string& path);
 // map_server's pixel -> cell conversion (including the bottom-up row order).
-std::vector<int8_t> occupancyFromImage(const GrayImage& image, const MapYaml& params);
+std::vector<int8_t> occupancyFromImage(const MapImage& image, const MapYaml& params);
 
 }  // namespace map
 }  // namespace marl_mrta

@@ -1,4 +1,4 @@
-"""Occupancy maps in map_server's format (YAML + PGM), without ROS.
+"""Occupancy maps in map_server's format (YAML + PGM or PNG), without ROS.
 
 ``load_map(yaml_path)`` reads a map exactly as map_server does and returns an
 ``OccupancyMap``; ``save_map(occupancy_map, yaml_path)`` writes one as map_saver does.
@@ -13,6 +13,12 @@ Reading follows map_server (Noetic ``image_loader.cpp``):
   ``255 - p`` when ``negate`` is set; ``occ > occupied_thresh`` -> 100,
   ``occ < free_thresh`` -> 0, otherwise -1 (``scale`` mode: ``1 + 98 * ratio`` in between;
   ``raw`` mode: the pixel value itself, as a signed byte).
+* The image is a PGM (P5 or P2) or a PNG (grey, grey + alpha, RGB or RGBA; 16-bit samples keep
+  their high byte, as map_server's image loader, SDL_image, reads them). In colour, ``p`` is the
+  mean of the channels, alpha included in ``trinary`` mode; in ``scale`` mode a pixel of alpha 0
+  between the thresholds is unknown, and map_server reads an RGB pixel's blue as its alpha. Grey
+  + alpha counts as RGBA. A palette PNG is refused: map_server would read its palette indices as
+  grey values.
 * Grid row 0 is the BOTTOM row of the image, so ``grid[row, col]`` has y growing with row,
   the layout of ``nav_msgs/OccupancyGrid.data`` (index ``row * width + col``).
 
@@ -173,29 +179,95 @@ def load_map(yaml_path: PathLike) -> OccupancyMap:
         raise MapFileError(f"{yaml_path}: image: must be a file name")
 
     image_path = yaml_path.parent / config["image"]
-    pixels = read_pgm(image_path)
+    pixels = read_image(image_path)
     grid = pixels_to_grid(pixels, negate, occupied_thresh, free_thresh, mode)
     return OccupancyMap(grid=grid, resolution=resolution, origin=origin)
 
 
 def pixels_to_grid(pixels: np.ndarray, negate: bool, occupied_thresh: float,
                    free_thresh: float, mode: str = "trinary") -> np.ndarray:
-    """map_server's pixel -> occupancy rule. ``pixels`` is the image (row 0 = top), uint8;
-    returns the grid (row 0 = bottom), int8."""
-    values = pixels.astype(np.float64)
+    """map_server's pixel -> occupancy rule. ``pixels`` is the image (row 0 = top), uint8, of
+    shape (rows, cols) or (rows, cols, channels) with 3 (RGB) or 4 (RGBA) channels; returns the
+    grid (row 0 = bottom), int8."""
+    pixels = np.asarray(pixels)
+    alpha = None
+    if pixels.ndim == 3:
+        channels = pixels.shape[2]
+        # As map_server: alpha is averaged in with the colours in trinary mode, and its "alpha"
+        # is the last channel, an RGB pixel's blue included.
+        averaged = channels if mode == "trinary" or channels != 4 else channels - 1
+        values = pixels[..., :averaged].astype(np.int64).sum(axis=2) / float(averaged)
+        alpha = pixels[..., -1]
+    else:
+        values = pixels.astype(np.float64)
     if negate:
         values = 255.0 - values
     if mode == "raw":
         # map_server stores the byte as it is; nav_msgs data is signed.
         return np.flipud(values.astype(np.uint8).view(np.int8)).copy()
     occ = (255.0 - values) / 255.0
-    grid = np.full(pixels.shape, UNKNOWN, dtype=np.int8)
+    grid = np.full(values.shape, UNKNOWN, dtype=np.int8)
     if mode == "scale":
         ratio = (occ - free_thresh) / max(occupied_thresh - free_thresh, 1e-12)
         grid = (1 + 98 * np.clip(ratio, 0.0, 1.0)).astype(np.int8)
+        if alpha is not None:
+            grid[alpha < 1] = UNKNOWN
     grid[occ > occupied_thresh] = OCCUPIED
     grid[occ < free_thresh] = FREE
     return np.flipud(grid).copy()
+
+
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+def read_image(path: PathLike) -> np.ndarray:
+    """A map's image, PNG or PGM by its first bytes: uint8 (rows, cols) or (rows, cols, channels),
+    row 0 = top."""
+    path = Path(path)
+    try:
+        with path.open("rb") as image:
+            magic = image.read(len(PNG_SIGNATURE))
+    except OSError as err:
+        raise MapFileError(f"{path}: image: cannot read ({err.strerror})") from None
+    return read_png(path) if magic == PNG_SIGNATURE else read_pgm(path)
+
+
+#: PIL's modes of a PNG -> how map_server's loader (SDL_image) hands the pixels over.
+_PNG_MODES = {"1": "grey", "L": "grey", "I": "grey16", "I;16": "grey16", "I;16B": "grey16",
+              "LA": "grey_alpha", "RGB": "colour", "RGBA": "colour"}
+
+
+def read_png(path: PathLike) -> np.ndarray:
+    """Read a PNG as map_server's loader does: grey (1-, 2- and 4-bit scaled to 0..255, 16-bit to
+    its high byte) as (rows, cols); RGB and RGBA as (rows, cols, 3 or 4); grey + alpha as RGBA.
+    Refuses palette images and images of more than MAX_MAP_CELLS cells (from the header)."""
+    from PIL import Image, UnidentifiedImageError   # Pillow: only maps in PNG need it
+
+    path = Path(path)
+    try:
+        with Image.open(path) as image:
+            width, height = image.size
+            if width * height > MAX_MAP_CELLS:
+                raise MapFileError(f"{path}: PNG header: {width} x {height} = {width * height} cells, more than "
+                                   f"the {MAX_MAP_CELLS} a map may have (a 250 m square at 0.05 m)")
+            kind = _PNG_MODES.get(image.mode)
+            if image.mode == "P":
+                raise MapFileError(f"{path}: PNG: a palette image; map_server reads its palette indices as grey "
+                                   f"values, not its colours: save the map as greyscale or RGB")
+            if kind is None:
+                raise MapFileError(f"{path}: PNG: pixel format {image.mode} is not grey, grey + alpha, RGB or RGBA")
+            if kind == "grey":
+                return np.asarray(image.convert("L"), dtype=np.uint8).copy()
+            if kind == "grey16":
+                return (np.asarray(image, dtype=np.int64) >> 8).astype(np.uint8)
+            pixels = np.asarray(image, dtype=np.uint8)
+    except (OSError, SyntaxError, ValueError, UnidentifiedImageError) as err:
+        if isinstance(err, MapFileError):
+            raise
+        raise MapFileError(f"{path}: PNG: {err}") from None
+    if kind == "grey_alpha":   # SDL_image turns grey + alpha into RGBA
+        return np.concatenate([pixels[..., :1]] * 3 + [pixels[..., 1:]], axis=2)
+    return pixels.copy()
 
 
 def read_pgm(path: PathLike) -> np.ndarray:
@@ -250,8 +322,8 @@ def _pgm_header(path: Path, data: bytes):
             raise MapFileError(f"{path}: PGM header: truncated")
         tokens.append(data[start:pos])
         if tokens[0] not in (b"P5", b"P2"):
-            raise MapFileError(f"{path}: PGM header: not a PGM image (magic "
-                               f"{tokens[0][:8]!r}, expected P5 or P2)")
+            raise MapFileError(f"{path}: PGM header: not a PGM or PNG image (magic "
+                               f"{tokens[0][:8]!r}, expected P5 or P2, or a PNG)")
     try:
         width, height, maxval = (int(token) for token in tokens[1:])
     except ValueError:

@@ -9,10 +9,11 @@
 
 #include "marl_mrta/map/occupancy_map.h"
 
-using marl_mrta::map::GrayImage;
+using marl_mrta::map::MapImage;
 using marl_mrta::map::loadMap;
 using marl_mrta::map::MapError;
 using marl_mrta::map::OccupancyMap;
+using marl_mrta::map::readMapImage;
 using marl_mrta::map::readPgm;
 
 namespace {
@@ -119,11 +120,23 @@ TEST(MapLoading, RotatedOriginIsHonoured) {
 }
 
 TEST(MapLoading, PgmReaderKeepsFileRowOrder) {
-  const GrayImage image = readPgm(fixture("tiny.pgm"));
+  const MapImage image = readPgm(fixture("tiny.pgm"));
   ASSERT_EQ(image.pixels.size(), 12u);
   EXPECT_EQ(image.pixels[0], 0);     // top-left
   EXPECT_EQ(image.pixels[3], 205);   // top-right
   EXPECT_EQ(image.pixels[8], 205);   // bottom-left
+}
+
+TEST(MapLoading, PngMapsAreReadAsMapServerReadsThem) {
+  // A grey PNG is the same map as the same PGM; 16-bit samples keep their high byte.
+  const OccupancyMap pgm = loadMap(fixture("tiny.yaml"));
+  EXPECT_EQ(loadMap(fixture("tiny_png.yaml")).data, pgm.data);
+  EXPECT_EQ(loadMap(fixture("tiny_grey16.yaml")).data, pgm.data);
+  // RGBA pixels (0,0,0,255), (254,254,254,0), (150,150,150,255), (150,150,150,0): trinary averages
+  // alpha in with the colours; scale leaves it out, and alpha 0 between the thresholds is unknown.
+  EXPECT_EQ(readMapImage(fixture("tiny_rgba.png")).channels, 4);
+  EXPECT_EQ(loadMap(fixture("tiny_rgba_trinary.yaml")).data, (std::vector<int8_t>{100, -1, -1, -1}));
+  EXPECT_EQ(loadMap(fixture("tiny_rgba_scale.yaml")).data, (std::vector<int8_t>{100, 0, 47, -1}));
 }
 
 TEST(MapLoading, TurtleBot3MapHasThePillarAtItsWorldCoordinates) {
@@ -248,10 +261,14 @@ INSTANTIATE_TEST_SUITE_P(
         BadMapCase{"bad_no_image_field.yaml", "bad_no_image_field.yaml: image: missing"},
         BadMapCase{"bad_missing_resolution.yaml", "bad_missing_resolution.yaml: resolution: missing"},
         BadMapCase{"bad_truncated_image.yaml", "truncated.pgm: pixels: truncated: expected 12 bytes, found 3"},
-        BadMapCase{"bad_not_pgm.yaml", "not_pgm.pgm: header: not a PGM file (expected magic P5 or P2, found 'P6')"},
+        BadMapCase{"bad_not_pgm.yaml",
+                   "not_pgm.pgm: header: not a PGM or PNG file (expected magic P5 or P2, or a PNG, found 'P6')"},
         BadMapCase{"bad_too_large.yaml",
                    "too_large.pgm: header: 6000 x 5000 = 30000000 cells, more than the 25000000 a map may have"},
         BadMapCase{"bad_not_a_mapping.yaml", "bad_not_a_mapping.yaml: yaml: must be a mapping"},
+        BadMapCase{"bad_palette.yaml",
+                   "palette.png: PNG: a palette image; map_server reads its palette indices as grey values"},
+        BadMapCase{"bad_truncated_png.yaml", "truncated.png: PNG: "},
         BadMapCase{"no_such_map.yaml", "no_such_map.yaml: yaml: cannot open file"}));
 
 TEST(MapLoading, MissingImageMessageNamesTheImagePath) {
