@@ -241,30 +241,32 @@ def read_png(path: PathLike) -> np.ndarray:
     """Read a PNG as map_server's loader does: grey (1-, 2- and 4-bit scaled to 0..255, 16-bit to
     its high byte) as (rows, cols); RGB and RGBA as (rows, cols, 3 or 4); grey + alpha as RGBA.
     Refuses palette images and images of more than MAX_MAP_CELLS cells (from the header)."""
-    from PIL import Image, UnidentifiedImageError   # Pillow: only maps in PNG need it
+    from PIL import Image   # Pillow: only maps in PNG need it
 
     path = Path(path)
     try:
-        with Image.open(path) as image:
-            width, height = image.size
-            if width * height > MAX_MAP_CELLS:
-                raise MapFileError(f"{path}: PNG header: {width} x {height} = {width * height} cells, more than "
-                                   f"the {MAX_MAP_CELLS} a map may have (a 250 m square at 0.05 m)")
-            kind = _PNG_MODES.get(image.mode)
-            if image.mode == "P":
-                raise MapFileError(f"{path}: PNG: a palette image; map_server reads its palette indices as grey "
-                                   f"values, not its colours: save the map as greyscale or RGB")
-            if kind is None:
-                raise MapFileError(f"{path}: PNG: pixel format {image.mode} is not grey, grey + alpha, RGB or RGBA")
+        image = Image.open(path)
+    except (OSError, SyntaxError, ValueError) as err:
+        raise MapFileError(f"{path}: PNG: {err}") from None
+    with image:
+        width, height = image.size
+        if width * height > MAX_MAP_CELLS:
+            raise MapFileError(f"{path}: PNG header: {width} x {height} = {width * height} cells, more than "
+                               f"the {MAX_MAP_CELLS} a map may have (a 250 m square at 0.05 m)")
+        if image.mode == "P":
+            raise MapFileError(f"{path}: PNG: a palette image; map_server reads its palette indices as grey "
+                               f"values, not its colours: save the map as greyscale or RGB")
+        kind = _PNG_MODES.get(image.mode)
+        if kind is None:
+            raise MapFileError(f"{path}: PNG: pixel format {image.mode} is not grey, grey + alpha, RGB or RGBA")
+        try:   # the pixels are decoded here
             if kind == "grey":
                 return np.asarray(image.convert("L"), dtype=np.uint8).copy()
             if kind == "grey16":
                 return (np.asarray(image, dtype=np.int64) >> 8).astype(np.uint8)
             pixels = np.asarray(image, dtype=np.uint8)
-    except (OSError, SyntaxError, ValueError, UnidentifiedImageError) as err:
-        if isinstance(err, MapFileError):
-            raise
-        raise MapFileError(f"{path}: PNG: {err}") from None
+        except (OSError, SyntaxError, ValueError) as err:
+            raise MapFileError(f"{path}: PNG: {err}") from None
     if kind == "grey_alpha":   # SDL_image turns grey + alpha into RGBA
         return np.concatenate([pixels[..., :1]] * 3 + [pixels[..., 1:]], axis=2)
     return pixels.copy()
