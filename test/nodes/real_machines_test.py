@@ -29,7 +29,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from nav_goals_test import rosrun_marking_skips  # noqa: E402
 from real_test_helpers import ROBOTS, node_pid, start_real_launch, wait_exit  # noqa: E402
 
-from marl_mrta.ros.process_group import stop_process_group  # noqa: E402
+from marl_mrta.ros.process_group import free_port, stop_process_group  # noqa: E402
 
 MANAGER = "/rl_task_allocation_manager"
 FLEET_USER = "marl_mrta_fleet"   # the robots' login: another user than the launching one
@@ -66,12 +66,6 @@ def ensure_fleet_user():
                         FLEET_USER], check=True)
     if os.geteuid() == 0:
         subprocess.run([system_tool("usermod") or "usermod", "-p", "*", FLEET_USER], check=True)
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def ancestors(pid):

@@ -4,8 +4,6 @@ against the stock map_server itself (where the stock stack is built), the Python
 built-in map_server publish the grid stock's map_server publishes."""
 import json
 import os
-import signal
-import socket
 import subprocess
 import sys
 from pathlib import Path
@@ -152,15 +150,10 @@ def stock_map_server() -> bool:
     return "map_server" in known and "marl_mrta" in known
 
 
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 def test_png_maps_are_read_as_stock_map_server_reads_them(tmp_path):
     if not stock_map_server():
         pytest.skip("stock navigation not available (no map_server package; make stock-nav)")
+    from marl_mrta.ros.process_group import free_port, stop_process_group
     grey, rgba = grey_ramp(), colour(channels=4)
     alpha = np.full_like(grey, 255)
     alpha[3] = 0
@@ -189,12 +182,7 @@ def test_png_maps_are_read_as_stock_map_server_reads_them(tmp_path):
                                  capture_output=True, text=True, timeout=120)
         assert collect.returncode == 0, collect.stderr[-2000:]
     finally:
-        os.killpg(launch.pid, signal.SIGINT)
-        try:
-            launch.wait(timeout=20)
-        except subprocess.TimeoutExpired:
-            os.killpg(launch.pid, signal.SIGKILL)
-            launch.wait()
+        stop_process_group(launch, timeout=20.0)
     grids = json.loads((tmp_path / "grids.json").read_text())
     for name, path in cases.items():
         stock, builtin = grids[f"/stock_{name}/map"], grids[f"/builtin_{name}/map"]

@@ -27,7 +27,6 @@ import glob
 import json
 import os
 import platform
-import socket
 import subprocess
 import sys
 import tempfile
@@ -36,6 +35,8 @@ import yaml
 
 import rospkg
 from roslib.packages import find_node
+
+from marl_mrta.ros.process_group import free_port
 
 MAX_SPEED = 0.22  # [m/s] TurtleBot3 Burger
 
@@ -68,12 +69,6 @@ def cpu_times():
     with open("/proc/stat") as f:
         fields = [int(v) for v in f.readline().split()[1:]]
     return fields[7] if len(fields) > 7 else 0, sum(fields[:8])
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def run_core(package_dir):

@@ -31,7 +31,6 @@ import platform
 import re
 import shutil
 import signal
-import socket
 import subprocess
 import sys
 import tempfile
@@ -49,7 +48,7 @@ from marl_mrta.common.paths import package_root
 from marl_mrta.evaluation.nav_comparison import (STACKS, Leg, LegRecord, LegRequest, LocalisationSummary,
                                                  MapComparison, compare_map, draw_legs, headline, leg_time)
 from marl_mrta.model.occupancy_map import load_map
-from marl_mrta.ros.process_group import stop_process_group
+from marl_mrta.ros.process_group import free_port, stop_process_group
 
 STOCK_PACKAGES = ("move_base", "amcl", "map_server")
 MAP_NAMES = ("lab", "tb3_world", "corridors", "pillars", "doors")
@@ -132,12 +131,6 @@ def stop_leftover_master(port: int) -> None:
         except OSError:
             pass
     log(f"  stopped the master left on port {port} (processes {', '.join(map(str, pids))})")
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def run_stack(stack: str, map_path: Path, legs: Sequence[Leg], repeats: int, localization: str, noise_profile: str,

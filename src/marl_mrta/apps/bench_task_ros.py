@@ -15,7 +15,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import socket
 import subprocess
 import sys
 import time
@@ -27,16 +26,11 @@ from marl_mrta.common.paths import package_root
 from marl_mrta.env.factory import make_env
 from marl_mrta.evaluation.loop import run_episodes
 from marl_mrta.evaluation.policies import PlanPolicy
+from marl_mrta.ros.process_group import free_port
 
 METHODS = ("random", "ga", "auction", "exact")
 PAPER_RANDOM_OVER_GA = {2: 2.46, 4: 2.59}
 AGREEMENT_GOAL = 0.15
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("localhost", 0))
-        return s.getsockname()[1]
 
 
 def run_ros_evaluation(scenario: Path, episodes: int, out: Path, seed: int, timeout: float,
