@@ -34,7 +34,7 @@ def wait_exit(process, timeout):
 
 
 def node_pid(name, caller="/real_test"):
-    uri = rosnode.get_api_uri(rosgraph.Master(caller), name)
+    uri = rosnode.get_api_uri(rosgraph.Master(caller), name, skip_cache=True)   # a node started anew has a new uri
     if not uri:
         return None
     code, _, pid = xmlrpc.client.ServerProxy(uri).getPid(caller)

@@ -82,3 +82,25 @@ def test_real_robots_hold_a_successor_reached_early_unless_told_not_to():
     _, args, _ = episodes_node("method:=exact")
     assert args[args.index("--precedence-margin") + 1] == "0.0"
     assert manager_hold_successors("hold_successors:=false") is False
+
+
+def navigation_outputs(*args):
+    """Per robot: the topic its move_base publishes velocity commands on, and its cmd_vel_gate node."""
+    config = roslaunch.config.load_config_default(
+        [(os.path.join(REPO, "launch", "real.launch"), ["roslaunch", "nav:=builtin", *args])], None, verbose=False)
+    nodes = {n.namespace + n.name: n for n in config.nodes}
+    out = {}
+    for robot in ("tb3_0", "tb3_1"):
+        remaps = dict(nodes[f"/{robot}/move_base"].remap_args)
+        out[robot] = (remaps.get("cmd_vel"), nodes.get(f"/{robot}/cmd_vel_gate"))
+    return out, config.params
+
+
+def test_move_base_drives_each_robot_through_its_gate_unless_told_not_to():
+    outputs, params = navigation_outputs()
+    for robot, (topic, gate) in outputs.items():
+        assert topic == "cmd_vel_nav"
+        assert gate is not None and gate.type == "cmd_vel_gate"
+        assert params[f"/{robot}/cmd_vel_gate/permit_topic"].value == "/rl_task_allocation_manager/drive_permit"
+    outputs, _ = navigation_outputs("cmd_vel_gate:=false")
+    assert all(topic == "cmd_vel" and gate is None for topic, gate in outputs.values())

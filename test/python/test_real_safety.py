@@ -1,8 +1,9 @@
 """The safety rules of real robots (ros/safety.py, no ROS): when a silent robot, a lost master or
-an outside fault stops the fleet, which reason is kept, and when a stop can be cleared."""
+an outside fault stops the fleet, which reason is kept, and when a stop can be cleared; when a
+robot's cmd_vel gate lets its navigation drive it."""
 import pytest
 
-from marl_mrta.ros.safety import PARTS, SafetyLimits, SafetyMonitor, hold_times
+from marl_mrta.ros.safety import PARTS, SafetyLimits, SafetyMonitor, VelocityGate, hold_times
 
 LIMITS = SafetyLimits(odom_silent_after=0.5, scan_silent_after=1.0, move_base_silent_after=2.0, master_lost_after=0.5)
 
@@ -96,3 +97,43 @@ def test_parts_never_heard_are_missing_and_count_from_the_arming():
 def test_a_stop_sends_zero_at_once_then_holds_it():
     assert hold_times(2.0, 1.0, 0.1) == pytest.approx([2.0 + 0.1 * k for k in range(11)])
     assert hold_times(2.0, 0.0, 0.1) == [2.0]
+
+
+def test_the_gate_is_closed_until_the_first_permit_and_opens_once():
+    gate = VelocityGate(permit_timeout=1.0)
+    assert gate.update(0.0) == (False, "")
+    assert gate.reason == "no drive permit yet"
+    gate.permit(True, 0.1)
+    assert gate.update(0.1) == (True, "open")
+    assert gate.update(0.2) == (True, "")
+    assert gate.is_open and gate.reason == ""
+
+
+def test_a_withdrawn_permit_closes_the_gate_at_once_and_a_new_one_opens_it():
+    gate = VelocityGate(permit_timeout=1.0)
+    gate.permit(True, 0.0)
+    gate.update(0.0)
+    gate.permit(False, 0.05)
+    is_open, change = gate.update(0.05)
+    assert not is_open and change == "drive permit withdrawn (the fleet is stopped)"
+    assert gate.permit_withdrawn
+    assert gate.update(0.1) == (False, "")   # said once
+    gate.permit(True, 2.0)
+    assert gate.update(2.0) == (True, "open")
+
+
+def test_a_permit_older_than_the_timeout_closes_the_gate():
+    gate = VelocityGate(permit_timeout=1.0)
+    gate.permit(True, 0.0)
+    assert gate.update(1.0)[0]                # exactly the timeout: still open
+    is_open, change = gate.update(1.25)
+    assert not is_open
+    assert change == "no drive permit for 1.2 s (the task manager is gone or hangs)"
+    assert not gate.permit_withdrawn
+    assert gate.reason == change
+
+
+@pytest.mark.parametrize("timeout", [0.0, -1.0, float("nan")])
+def test_a_gate_needs_a_positive_timeout(timeout):
+    with pytest.raises(ValueError, match="permit_timeout: must be > 0"):
+        VelocityGate(timeout)

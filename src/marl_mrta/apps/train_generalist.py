@@ -1,8 +1,10 @@
-"""`train_generalist`: train a set actor across generated scenarios (an experiment: no generalist ships yet).
+"""`train_generalist`: train a set actor across generated scenarios (policies/generalist.pt is one).
 
-    train_generalist --out results/runs/generalist --scenarios 240 --seed 0
+    train_generalist --out results/runs/generalist --scenarios 320 --robots 2 4 --tasks 4 16 --mappo-steps 48000 --seed 0
 
-Stages, each seeded (a run repeats bit for bit), each timed:
+That command made the shipped file (docs/mappo.md, "The generalist").
+Stages, each seeded and timed; the exact teacher's budget is wall time, so on a loaded machine
+the plans, and what is learnt from them, can differ:
 1. scenarios: `--scenarios` drawn by model/generator.py, `--robots` 2-8 robots and `--tasks` 4-32
    tasks (the generator draws the map, the tasks, the precedence and the service times), written
    under <out>/scenarios,

@@ -15,7 +15,7 @@ from typing import Dict, Iterable, List, Optional, Sequence, Tuple
 ROBOTS = ("tb3_0", "tb3_1")
 ROWS = {"sim_ideal": "simulation, lock-step, ideal", "sim_measured": "simulation, lock-step, measured_tb3",
         "stand_in": "real.launch, stand-in (wall time, amcl)"}
-FAULTS = ("robot_killed", "ctrl_c", "estop", "move_base_abort", "master_lost")
+FAULTS = ("robot_killed", "ctrl_c", "estop", "move_base_abort", "manager_hung", "master_lost")   # master_lost ends the master: last
 PAPER = {"simulation": 42.0, "real": 60.0}   # Table 10: makespan [s] of MAPPO, 2 robots
 
 Track = List[Tuple[float, float, float, float]]   # (t, x, y, yaw), sorted by t

@@ -1,7 +1,8 @@
 """What the real executor hears from and sends to a fleet of real robots, besides goals: every
 robot's odometry, scan and move_base status (to tell a silent one), the ROS master's answers, and
-the stop itself (every goal cancelled, zero cmd_vel, held for a moment). The decisions are the
-ROS-free ros/safety.py's; this module only moves messages and runs the watchdog.
+the stop itself (every goal cancelled, zero cmd_vel, held for a moment), and the drive permit
+that opens each robot's cmd_vel gate (apps/cmd_vel_gate_node.py). The decisions are the ROS-free
+ros/safety.py's; this module only moves messages and runs the watchdog.
 """
 from __future__ import annotations
 
@@ -14,6 +15,7 @@ from typing import Callable, List, Sequence
 import rosgraph
 import rospy
 from geometry_msgs.msg import Twist
+from std_msgs.msg import Bool
 
 from marl_mrta.ros.move_base_link import MoveBaseLink
 from marl_mrta.ros.safety import SafetyMonitor, hold_times
@@ -39,8 +41,9 @@ class _TimeoutTransport(xmlrpc.client.Transport):
 
 
 class FleetStop:
-    """Stops every robot: cancels all goals of its move_base and sends zero cmd_vel at once,
-    then every HOLD_PERIOD for `hold` s (a command move_base had in flight cannot outlast it)."""
+    """Stops every robot: withdraws the drive permit (the robots' cmd_vel gates close), cancels
+    all goals of its move_base and sends zero cmd_vel at once, then every HOLD_PERIOD for `hold`
+    s (a command move_base had in flight cannot outlast it)."""
 
     def __init__(self, namespaces: Sequence[str], bases: Sequence[MoveBaseLink], hold: float):
         self.namespaces = list(namespaces)
@@ -49,13 +52,28 @@ class FleetStop:
         # Made at start: a publisher made when the stop is due would still be connecting.
         self._cmd_vel = [rospy.Publisher("/" + ns + "/cmd_vel", Twist, queue_size=1, tcp_nodelay=True)
                          for ns in self.namespaces]
+        # ~drive_permit: the node's own, sent by the watchdog 1 / WATCH_PERIOD times a second.
+        self._permit = rospy.Publisher("~drive_permit", Bool, queue_size=1, tcp_nodelay=True)
+        self._permit_lock = threading.Lock()
+        self._withdrawn_at = float("-inf")
         self._holding = threading.Event()
 
     def robots_not_listening(self) -> List[str]:
         """Robots whose base (turtlebot3_core) does not subscribe to the manager's cmd_vel."""
         return [ns for ns, pub in zip(self.namespaces, self._cmd_vel) if pub.get_num_connections() == 0]
 
+    def send_permit(self, allowed: bool, checked_at: float) -> None:
+        """The permit as the monitor stood at `checked_at` (monotonic s); a yes checked before the
+        last stop's withdrawal is stale and not sent."""
+        with self._permit_lock:
+            if allowed and checked_at <= self._withdrawn_at:
+                return
+            self._permit.publish(Bool(data=allowed))
+
     def stop(self) -> None:
+        with self._permit_lock:
+            self._withdrawn_at = time.monotonic()
+            self._permit.publish(Bool(data=False))
         for base in self.bases:
             base.cancel_all()
         self._send_zero()
@@ -82,12 +100,14 @@ class FleetStop:
 
 
 class FleetWatch:
-    """Feeds a SafetyMonitor from the graph and calls `on_fault(reason)` when it finds a fault
-    while the fleet is not stopped already."""
+    """Feeds a SafetyMonitor from the graph, calls `on_fault(reason)` when it finds a fault
+    while the fleet is not stopped already, and `permit(may_drive, checked_at)` at every check."""
 
-    def __init__(self, namespaces: Sequence[str], monitor: SafetyMonitor, on_fault: Callable[[str], None]):
+    def __init__(self, namespaces: Sequence[str], monitor: SafetyMonitor, on_fault: Callable[[str], None],
+                 permit: Callable[[bool, float], None]):
         self.monitor = monitor
         self.on_fault = on_fault
+        self.permit = permit
         for i, ns in enumerate(namespaces):
             for part, topic in (("odom", "odom"), ("scan", "scan"), ("move_base", "move_base/status")):
                 # AnyMsg: only the arrival counts, nothing is deserialised.
@@ -117,4 +137,6 @@ class FleetWatch:
                 reason = self.monitor.fault(time.monotonic())
                 if reason:
                     self.on_fault(reason)
+            checked_at = time.monotonic()
+            self.permit(not self.monitor.tripped, checked_at)
             time.sleep(WATCH_PERIOD)

@@ -8,8 +8,8 @@ one at a time by default (`reset_drive`; `reset: current` takes the poses where 
 instead), then the episode waits for the operator's go (~go, or `go: true` unattended). Every
 fault stops every robot at once: a robot whose odometry, scan or move_base falls silent, a lost
 ROS master (ros/fleet_link.py watches, ros/safety.py decides), a goal move_base aborts, the
-e-stop, the node shutting down. A stop cancels every goal and sends zero cmd_vel (held for
-`stop_hold`); the step returns `aborted` with the reason, which ends the episode
+e-stop, the node shutting down. A stop withdraws the drive permit of the robots' cmd_vel gates,
+cancels every goal and sends zero cmd_vel (held for `stop_hold`); the step returns `aborted` with the reason, which ends the episode
 (env/task_env.py) and names the robot and the part.
 """
 from __future__ import annotations
@@ -69,7 +69,7 @@ class RealExecutor:
             wait_wall(base.connected, wait, f"{base.server_name} did not connect")
         for link in self.localizers:
             wait_wall(link.connected, wait, f"{link.namespace}/amcl did not subscribe to initialpose")
-        self._watch = FleetWatch(self.namespaces, self.monitor, self.trip)
+        self._watch = FleetWatch(self.namespaces, self.monitor, self.trip, self.fleet_stop.send_permit)
         wait_wall(lambda: not self.monitor.missing(), wait, lambda: "nothing heard of " + ", ".join(self.monitor.missing()))
         wait_wall(lambda: all(link.pose() is not None for link in self.localizers), wait,
                   lambda: "no amcl_pose from " + ", ".join(link.namespace for link in self.localizers

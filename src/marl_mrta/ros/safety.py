@@ -128,3 +128,55 @@ def hold_times(start: float, hold: float, period: float) -> List[float]:
         return [start]
     count = int(math.floor(hold / period + 1e-9))
     return [start + k * period for k in range(count + 1)]
+
+
+class VelocityGate:
+    """Whether a robot's navigation may drive it (the cmd_vel gate between move_base and the
+    base, apps/cmd_vel_gate_node.py). Open only while the task manager's latest drive permit said
+    yes and is at most `permit_timeout` s old: a stop withdraws it, and a manager that is gone
+    stops sending it. Stock move_base's rotate_recovery publishes its own commands until its turn
+    ends, whatever the cancel; behind the gate they never reach the wheels. Times are seconds of
+    a monotonic clock."""
+
+    def __init__(self, permit_timeout: float):
+        if not permit_timeout > 0.0:
+            raise ValueError(f"permit_timeout: must be > 0, got {permit_timeout!r}")
+        self.permit_timeout = permit_timeout
+        self._permit: Optional[bool] = None
+        self._permit_at: Optional[float] = None
+        self._open = False
+        self._reason = "no drive permit yet"
+
+    def permit(self, allowed: bool, now: float) -> None:
+        self._permit, self._permit_at = bool(allowed), now
+
+    def update(self, now: float) -> Tuple[bool, str]:
+        """(open, changed reason): the reason is "" unless the gate just closed or opened, then
+        why (closing) or "open" (opening), once per change."""
+        if self._permit_at is None:
+            should_open, why = False, "no drive permit yet"
+        elif now - self._permit_at > self.permit_timeout:
+            should_open, why = False, f"no drive permit for {now - self._permit_at:.1f} s (the task manager is gone or hangs)"
+        elif not self._permit:
+            should_open, why = False, "drive permit withdrawn (the fleet is stopped)"
+        else:
+            should_open, why = True, "open"
+        changed = should_open != self._open
+        self._open = should_open
+        if not should_open:
+            self._reason = why
+        return should_open, why if changed else ""
+
+    @property
+    def is_open(self) -> bool:
+        return self._open
+
+    @property
+    def permit_withdrawn(self) -> bool:
+        """The latest permit said no (as against: none yet, or none for too long)."""
+        return self._permit is False
+
+    @property
+    def reason(self) -> str:
+        """Why the gate is closed ("" while open)."""
+        return "" if self._open else self._reason
