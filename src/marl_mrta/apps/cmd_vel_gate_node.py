@@ -36,17 +36,16 @@ class CmdVelGateNode:
     def _on_permit(self, msg: Bool) -> None:
         with self._lock:
             self.gate.permit(msg.data, time.monotonic())
-        self._check()
+            self._check()
 
     def _on_command(self, msg: Twist) -> None:
-        if self._check():
-            self._cmd_vel.publish(msg)
-        else:
-            self._cmd_vel.publish(Twist())
+        # Under the lock: a command let through cannot follow the zero of a closing.
+        with self._lock:
+            self._cmd_vel.publish(msg if self._check() else Twist())
 
     def _check(self) -> bool:
-        with self._lock:
-            is_open, change = self.gate.update(time.monotonic())
+        """Whether the gate is open; on closing cancels every goal and sends zero. Callers hold the lock."""
+        is_open, change = self.gate.update(time.monotonic())
         if change and not is_open:
             self._cancel.publish(GoalID())   # an empty id cancels every goal (actionlib)
             self._cmd_vel.publish(Twist())
@@ -60,12 +59,14 @@ class CmdVelGateNode:
 
     def shut_down(self) -> None:
         """The gate's last word: a robot never keeps the gate's last relayed command."""
-        self._cmd_vel.publish(Twist())
+        with self._lock:
+            self._cmd_vel.publish(Twist())
 
     def spin(self) -> None:
         # Checked on wall time: a silent manager sends nothing that would trigger a check.
         while not rospy.is_shutdown():
-            self._check()
+            with self._lock:
+                self._check()
             time.sleep(self._period)
 
 
