@@ -93,3 +93,13 @@ def test_a_bad_choice_of_real_launch_is_one_line(name, value):
     with pytest.raises(ValueError) as error:
         real_choices(**{name: value})
     assert str(error.value).startswith(f"real.launch: {name}:='{value}': must be one of ")
+
+
+def test_the_fault_runs_end_with_the_one_that_kills_the_master():
+    """The fault runs share one master, which the master-lost run kills: any kind after it would
+    find no master, and every kind says where its latency counts from."""
+    from marl_mrta.apps.sim_to_real import MEASURED_FROM, parse_args
+    from marl_mrta.evaluation.sim_to_real import FAULTS
+    assert FAULTS[-1] == "master_lost"
+    assert set(MEASURED_FROM) == set(FAULTS)
+    assert parse_args(["--faults", "manager_hung,estop"]).faults == "manager_hung,estop"
