@@ -38,7 +38,8 @@ MANAGER = "/rl_task_allocation_manager"
 MEASURED_FROM = {"robot_killed": "tb3_1's first part silent for its limit after the SIGKILL of its stand-in",
                  "ctrl_c": "SIGINT to the task manager", "estop": "the ~estop call",
                  "move_base_abort": "tb3_0's move_base result ABORTED published",
-                 "master_lost": "SIGKILL of the ROS master + master_lost_after (1.0 s): the master unanswered for its limit",
+                 "master_lost": "SIGKILL of the ROS master + master_lost_after (1.0 s): the master unanswered for its "
+                                "limit",
                  "manager_hung": "SIGSTOP of the task manager + the cmd_vel gates' permit_timeout (1.0 s): its last "
                                  "permit too old"}
 

@@ -9,8 +9,8 @@ instead), then the episode waits for the operator's go (~go, or `go: true` unatt
 fault stops every robot at once: a robot whose odometry, scan or move_base falls silent, a lost
 ROS master (ros/fleet_link.py watches, ros/safety.py decides), a goal move_base aborts, the
 e-stop, the node shutting down. A stop withdraws the drive permit of the robots' cmd_vel gates,
-cancels every goal and sends zero cmd_vel (held for `stop_hold`); the step returns `aborted` with the reason, which ends the episode
-(env/task_env.py) and names the robot and the part.
+cancels every goal and sends zero cmd_vel (held for `stop_hold`); the step returns `aborted`
+with the reason, which ends the episode (env/task_env.py) and names the robot and the part.
 """
 from __future__ import annotations
 
