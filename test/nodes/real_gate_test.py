@@ -7,12 +7,14 @@
    reset, then rotate_recovery, which publishes its turn until it ends whatever the cancel. The
    e-stop comes during the turn. Asserted: move_base went on commanding the turn (cmd_vel_nav)
    after the stop, yet tb3_0's cmd_vel carried only zeros from at most 0.5 s after the e-stop, and
-   its odometry stood still from 1 s after it.
+   its odometry stood still from 1 s after it; the gate's ~state said open before and why it
+   closed after.
 2. A task manager that hangs (SIGSTOP: nothing of its own stop runs, and nothing in the launch
    dies) while the robots drive (built-in navigation, which runs everywhere): the gates close once
    the permit is older than permit_timeout, cancel every goal and send zero cmd_vel; every robot's
-   cmd_vel is zero for good within 0.5 s of that, and no move_base goal is active afterwards. Let
-   go again (SIGCONT), the manager finds its goals cancelled and ends the episode unfinished.
+   cmd_vel is zero for good within 0.5 s of that, no move_base goal is active afterwards, and each
+   gate's ~state names the timeout. Let go again (SIGCONT), the manager finds its goals cancelled
+   and ends the episode unfinished.
 """
 import json
 import os
@@ -32,6 +34,7 @@ from geometry_msgs.msg import Twist
 from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
 from nav_msgs.msg import Odometry
 from rosgraph_msgs.msg import Log
+from std_msgs.msg import String
 from std_srvs.srv import Trigger
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -91,6 +94,10 @@ class RealGateTest(unittest.TestCase):
             time.sleep(0.05)
         self.fail("%s never logged %r" % (node, text))
 
+    @staticmethod
+    def gate_state(ns):
+        return rospy.wait_for_message("/%s/cmd_vel_gate/state" % ns, String, timeout=5.0).data
+
     def test_1_a_stop_holds_while_stock_rotate_recovery_turns(self):
         if not rospy.get_param("~stock_available", False):
             self.skipTest(UNAVAILABLE)
@@ -110,6 +117,7 @@ class RealGateTest(unittest.TestCase):
             goal.target_pose.pose.position.x, goal.target_pose.pose.position.y = 2.0, 0.6   # A1, where tb3_1 stands
             goal.target_pose.pose.orientation.w = 1.0
             client.send_goal(goal)
+            self.assertEqual("open", self.gate_state("tb3_0"))
             turn = self.wait_logged("/tb3_0/move_base", "Rotate recovery behavior started", 60.0)
             deadline = time.monotonic() + 5.0
             while not any(abs(w) > 0.2 for _, _, w in nav.after(turn)):
@@ -117,11 +125,14 @@ class RealGateTest(unittest.TestCase):
                 time.sleep(0.02)
             estop = time.monotonic()
             self.assertTrue(rospy.ServiceProxy(MANAGER + "/estop", Trigger)().success)
-            time.sleep(3.0)
+            time.sleep(0.3)
+            state = self.gate_state("tb3_0")   # now: the aborted episode ends real.launch in a second or two
+            time.sleep(2.7)
             turning_on = [t - estop for t, v, w in nav.after(estop + STOP_WITHIN) if is_moving(v, w)]
             rospy.loginfo("move_base commanded the turn until %.2f s after the e-stop",
                           max(turning_on) if turning_on else 0.0)
             self.assertTrue(turning_on, "move_base's turn ended with the e-stop: nothing here to gate")
+            self.assertEqual("closed: drive permit withdrawn (the fleet is stopped)", state)
             stopped = stop_time(self.watch.of("tb3_0"), estop - 1.0)
             self.assertIsNotNone(stopped, "tb3_0 still commanded to move after the e-stop")
             rospy.loginfo("tb3_0: cmd_vel zero for good %.3f s after the e-stop", stopped - estop)
@@ -148,6 +159,7 @@ class RealGateTest(unittest.TestCase):
             hung = time.monotonic()
             closed = hung + PERMIT_TIMEOUT
             time.sleep(PERMIT_TIMEOUT + 3.0)
+            states = {ns: self.gate_state(ns) for ns in ROBOTS}
             os.kill(manager, signal.SIGCONT)
             for ns in ROBOTS:
                 stopped = stop_time(self.watch.of(ns), hung)
@@ -155,6 +167,7 @@ class RealGateTest(unittest.TestCase):
                 rospy.loginfo("%s: cmd_vel zero for good %.3f s after the manager hung", ns, stopped - hung)
                 self.assertLessEqual(stopped - closed, STOP_WITHIN, "%s: stopped %.3f s after the gate's timeout"
                                      % (ns, stopped - closed))
+                self.assertRegex(states[ns], r"^closed: no drive permit for 1\.\d s \(the task manager is gone or hangs\)$")
                 latest = [msg for t, msg in statuses[ns] if t > closed + 1.0]
                 self.assertTrue(latest, "%s: move_base status silent" % ns)
                 active = [s.goal_id.id for s in latest[-1].status_list if s.status == GoalStatus.ACTIVE]

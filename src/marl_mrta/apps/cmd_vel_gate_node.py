@@ -8,8 +8,9 @@ closes (a stop, or the manager gone) it cancels every goal of this robot's move_
 cmd_vel, and from then on a zero command in place of each navigation command, and logs why.
 Why: stock move_base reads a cancel only between recovery behaviours, and its rotate_recovery
 keeps publishing its turn for up to about 7 s; a manager that crashed stops nothing at all.
-Parameters: ~permit_topic (default /rl_task_allocation_manager/drive_permit), ~permit_timeout
-(default 1.0 s), ~check_rate (default 20 Hz).
+Publishes ~state (std_msgs/String, latched): "open", or "closed: " and why. Parameters:
+~permit_topic (default /rl_task_allocation_manager/drive_permit), ~permit_timeout (default 1.0 s),
+~check_rate (default 20 Hz).
 """
 import threading
 import time
@@ -17,7 +18,7 @@ import time
 import rospy
 from actionlib_msgs.msg import GoalID
 from geometry_msgs.msg import Twist
-from std_msgs.msg import Bool
+from std_msgs.msg import Bool, String
 
 from marl_mrta.common.config import ConfigError, node_parameters
 from marl_mrta.ros.safety import VelocityGate
@@ -29,6 +30,9 @@ class CmdVelGateNode:
         self._lock = threading.Lock()
         self._cmd_vel = rospy.Publisher("cmd_vel", Twist, queue_size=1, tcp_nodelay=True)
         self._cancel = rospy.Publisher("move_base/cancel", GoalID, queue_size=1, tcp_nodelay=True)
+        # What an operator asks when a robot does not move: `rostopic echo NS/cmd_vel_gate/state`.
+        self._state = rospy.Publisher("~state", String, queue_size=1, latch=True)
+        self._state.publish(String(data="closed: " + gate.reason))
         rospy.Subscriber(permit_topic, Bool, self._on_permit, queue_size=1, tcp_nodelay=True)
         rospy.Subscriber("cmd_vel_nav", Twist, self._on_command, queue_size=1, tcp_nodelay=True)
         self._period = 1.0 / check_rate
@@ -53,8 +57,10 @@ class CmdVelGateNode:
             # fault); a permit that stopped coming is known here alone.
             log = rospy.loginfo if self.gate.permit_withdrawn else rospy.logerr
             log("%s: gate closed: %s: every move_base goal cancelled, zero cmd_vel", rospy.get_name(), change)
+            self._state.publish(String(data="closed: " + change))
         elif change:
             rospy.loginfo("%s: gate open: move_base drives the robot", rospy.get_name())
+            self._state.publish(String(data="open"))
         return is_open
 
     def shut_down(self) -> None:
