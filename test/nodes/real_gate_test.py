@@ -30,7 +30,6 @@ import actionlib
 import rospy
 import rostest
 from actionlib_msgs.msg import GoalStatus, GoalStatusArray
-from geometry_msgs.msg import Twist
 from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
 from nav_msgs.msg import Odometry
 from rosgraph_msgs.msg import Log
@@ -38,7 +37,7 @@ from std_msgs.msg import String
 from std_srvs.srv import Trigger
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from real_test_helpers import ROBOTS, CommandWatch, node_pid, start_real_launch, wait_exit  # noqa: E402
+from real_test_helpers import ROBOTS, CommandWatch, Recorder, node_pid, start_real_launch, wait_exit  # noqa: E402
 from stock_test_helpers import UNAVAILABLE  # noqa: E402
 
 from marl_mrta.common.config import read_yaml  # noqa: E402
@@ -50,24 +49,6 @@ STOP_WITHIN = 0.5   # s from the moment the fault is known, as in real_stop
 MANAGER = "/rl_task_allocation_manager"
 PERMIT_TIMEOUT = read_yaml(default_config_path("cmd_vel_gate.yaml")).data["permit_timeout"]
 BLOCKED = os.path.join(str(package_root()), "test", "data", "scenarios", "blocked_goal_2r.xml")
-
-
-class Recorder:
-    """(wall time, linear, angular) of every message on a topic of Twist or Odometry."""
-
-    def __init__(self, topic, kind):
-        self.lock = threading.Lock()
-        self.samples = []
-        rospy.Subscriber(topic, kind, self._on_message, queue_size=100, tcp_nodelay=True)
-
-    def _on_message(self, msg):
-        twist = msg.twist.twist if isinstance(msg, Odometry) else msg
-        with self.lock:
-            self.samples.append((time.monotonic(), twist.linear.x, twist.angular.z))
-
-    def after(self, since):
-        with self.lock:
-            return [s for s in self.samples if s[0] > since]
 
 
 class RealGateTest(unittest.TestCase):
@@ -106,7 +87,7 @@ class RealGateTest(unittest.TestCase):
                                     "episodes:=1", "go:=false", "out:=" + os.path.join(work, "result.json")],
                                    os.path.join(work, "launch.log"))
         try:
-            nav = Recorder("/tb3_0/cmd_vel_nav", Twist)
+            nav = Recorder("/tb3_0/cmd_vel_nav")
             odom = Recorder("/tb3_0/odom", Odometry)
             self.wait_logged(MANAGER, "waiting for the operator's go", 240.0)
             client = actionlib.SimpleActionClient("/tb3_0/move_base", MoveBaseAction)

@@ -56,28 +56,37 @@ def kill_node(name):
     return time.monotonic()
 
 
+class Recorder:
+    """(wall time, linear, angular) of every message on a topic of Twist or Odometry."""
+
+    def __init__(self, topic, kind=Twist):
+        self.lock = threading.Lock()
+        self.samples = []
+        rospy.Subscriber(topic, kind, self._on_message, queue_size=100, tcp_nodelay=True)
+
+    def _on_message(self, msg):
+        twist = msg if isinstance(msg, Twist) else msg.twist.twist
+        with self.lock:
+            self.samples.append((time.monotonic(), twist.linear.x, twist.angular.z))
+
+    def after(self, since=float("-inf")):
+        with self.lock:
+            return [s for s in self.samples if s[0] > since]
+
+
 class CommandWatch:
     """Every command on each robot's cmd_vel, as (wall time, linear, angular)."""
 
     def __init__(self, robots=ROBOTS):
-        self.lock = threading.Lock()
-        self.commands = {ns: [] for ns in robots}
-        for ns in robots:
-            rospy.Subscriber("/%s/cmd_vel" % ns, Twist, self._on_command, ns, queue_size=100, tcp_nodelay=True)
-
-    def _on_command(self, msg, ns):
-        with self.lock:
-            self.commands[ns].append((time.monotonic(), msg.linear.x, msg.angular.z))
+        self.recorders = {ns: Recorder("/%s/cmd_vel" % ns) for ns in robots}
 
     def of(self, ns):
-        with self.lock:
-            return list(self.commands[ns])
+        return self.recorders[ns].after()
 
     def driving(self, since_wall):
         """Every robot was sent a moving command after `since_wall`."""
-        with self.lock:
-            return all(any(t > since_wall and (abs(v) > 0.05 or abs(w) > 0.2) for t, v, w in cmds)
-                       for cmds in self.commands.values())
+        return all(any(abs(v) > 0.05 or abs(w) > 0.2 for _, v, w in recorder.after(since_wall))
+                   for recorder in self.recorders.values())
 
     def wait_driving(self, timeout):
         start = time.monotonic()
