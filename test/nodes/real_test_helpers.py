@@ -3,6 +3,7 @@ robots' commands as they travel on cmd_vel, a node's process id."""
 import os
 import signal
 import subprocess
+import tempfile
 import threading
 import time
 import xmlrpc.client
@@ -22,6 +23,13 @@ def start_real_launch(args, log_path, env=None):
     log = open(log_path, "w")
     return subprocess.Popen(["roslaunch", "marl_mrta", "real.launch", *args], stdout=log, stderr=subprocess.STDOUT,
                             start_new_session=True, env=env)
+
+
+def start_in_work_dir(prefix, args):
+    """real.launch ARGS writing its result into a new directory: (launch, result file, directory)."""
+    work = tempfile.mkdtemp(prefix=prefix)
+    out = os.path.join(work, "result.json")
+    return start_real_launch(list(args) + ["out:=" + out], os.path.join(work, "launch.log")), out, work
 
 
 def wait_exit(process, timeout):
@@ -57,21 +65,28 @@ def kill_node(name):
 
 
 class Recorder:
-    """(wall time, linear, angular) of every message on a topic of Twist or Odometry."""
+    """(wall time, *values(msg)) of every message on a topic: by default (linear, angular) of a
+    Twist or an Odometry."""
 
-    def __init__(self, topic, kind=Twist):
+    def __init__(self, topic, kind=Twist, values=None):
         self.lock = threading.Lock()
         self.samples = []
+        self.values = values or speeds
         rospy.Subscriber(topic, kind, self._on_message, queue_size=100, tcp_nodelay=True)
 
     def _on_message(self, msg):
-        twist = msg if isinstance(msg, Twist) else msg.twist.twist
+        sample = (time.monotonic(), *self.values(msg))
         with self.lock:
-            self.samples.append((time.monotonic(), twist.linear.x, twist.angular.z))
+            self.samples.append(sample)
 
     def after(self, since=float("-inf")):
         with self.lock:
             return [s for s in self.samples if s[0] > since]
+
+
+def speeds(msg):
+    twist = msg if isinstance(msg, Twist) else msg.twist.twist
+    return twist.linear.x, twist.angular.z
 
 
 class CommandWatch:

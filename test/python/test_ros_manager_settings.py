@@ -67,6 +67,7 @@ def test_real_mode_settings_come_from_the_config_file_and_the_node():
     assert settings.real.limits.scan_silent_after == 2.5
     assert settings.real.limits.odom_silent_after == read_yaml(default_config_path("task_manager.yaml")).data["odom_silent_after"]
     assert settings.real.aborted_episode_file == "/tmp/a.json"
+    assert settings.real.limits.scan_fit_min == 0.5 and settings.real.limits.scan_fit_lost_scans == 10
     assert read_manager_settings({"scenario": "s.xml"}, NODE).mode == "simulation"
 
 
@@ -79,6 +80,10 @@ def test_real_mode_settings_come_from_the_config_file_and_the_node():
     ({"odom_silent_after": 0}, NODE + "/odom_silent_after: must be > 0.0, got 0.0"),
     ({"master_lost_after": "1s"}, NODE + "/master_lost_after: expected a number, got '1s'"),
     ({"stop_hold": -1}, NODE + "/stop_hold: must be >= 0.0, got -1.0"),
+    ({"scan_fit_min": 1.5}, NODE + "/scan_fit_min: must be <= 1.0, got 1.5"),
+    ({"scan_fit_lost_scans": 0}, NODE + "/scan_fit_lost_scans: must be >= 1, got 0"),
+    ({"scan_fit_tolerance": 0}, NODE + "/scan_fit_tolerance: must be > 0.0, got 0.0"),
+    ({"scan_fit_max_turn": "fast"}, NODE + "/scan_fit_max_turn: expected a number, got 'fast'"),
 ])
 def test_bad_real_mode_parameters_are_one_line(params, message):
     with pytest.raises(ConfigError) as error:

@@ -9,7 +9,7 @@ makespan, allocation and logic consistency, amcl's localisation error against th
 ground truth file, the command-to-motion latency measured in the graph (cmd_vel against odom),
 the episode's wall time; then the stop latency of real.launch per failure kind (a robot killed,
 Ctrl-C, the e-stop, a move_base abort, the task manager hung: the cmd_vel gates' permit times
-out, the ROS master lost). Writes <out>/sim_to_real.json and
+out, a robot mislocalised: amcl told it stands 1 m off, the ROS master lost). Writes <out>/sim_to_real.json and
 <out>/sim_to_real.png (about 8 minutes). Without --policy a policy is trained first (embedded,
 sequential preset, seconds). `sim_to_real probe --robots ... --out FILE` is the recording node
 it starts in each launch.
@@ -29,8 +29,8 @@ from typing import Dict, List, Optional, Sequence
 
 from marl_mrta.common.config import read_yaml
 from marl_mrta.common.paths import default_config_path, package_root
-from marl_mrta.evaluation.sim_to_real import (FAULTS, PAPER, ROBOTS, ROWS, plot, read_ground_truth, row_figures,
-                                              stop_time)
+from marl_mrta.evaluation.sim_to_real import (FAULTS, PAPER, ROBOTS, ROWS, displaced_position, plot,
+                                              read_ground_truth, row_figures, stop_time)
 from marl_mrta.evaluation.summary import write_document
 
 MANAGER = "/rl_task_allocation_manager"
@@ -41,7 +41,13 @@ MEASURED_FROM = {"robot_killed": "tb3_1's first part silent for its limit after 
                  "master_lost": "SIGKILL of the ROS master + master_lost_after (1.0 s): the master unanswered for its "
                                 "limit",
                  "manager_hung": "SIGSTOP of the task manager + the cmd_vel gates' permit_timeout (1.0 s): its last "
-                                 "permit too old"}
+                                 "permit too old",
+                 "mislocalised": "tb3_0's scan_fit below scan_fit_min for the scan_fit_lost_scans'th time in a row (10) "
+                                 "after an initialpose 1 m from its estimate (2 cm spread)"}
+#: How far from its estimate the mislocalisation fault tells amcl the robot stands [m].
+DISPLACEMENT = 1.0
+#: The scenario of the stop-latency runs.
+FAULT_SCENARIO = package_root() / "scenarios" / "lab_2r.xml"
 
 
 def parse_args(argv: Sequence[str]) -> argparse.Namespace:
@@ -118,8 +124,11 @@ def time_fault(kind: str, work: Path, master_uri: str, probe) -> Dict:
     import rospy
     import xmlrpc.client
     from actionlib_msgs.msg import GoalStatus, GoalStatusArray
+    from geometry_msgs.msg import PoseWithCovarianceStamped
     from move_base_msgs.msg import MoveBaseActionResult
+    from std_msgs.msg import Float32
     from std_srvs.srv import Trigger
+    from marl_mrta.model.scenario import load_scenario
     from marl_mrta.ros.safety import SafetyLimits
 
     def pid_of(name: str) -> int:
@@ -127,7 +136,8 @@ def time_fault(kind: str, work: Path, master_uri: str, probe) -> Dict:
                                    skip_cache=True)   # each run's launch starts the node anew
         return xmlrpc.client.ServerProxy(uri).getPid("/sim_to_real")[2]
 
-    args = ["real.launch", "stand_in:=true", "method:=exact", "episodes:=1", "go:=true", "nav:=builtin",
+    args = ["real.launch", f"scenario:={FAULT_SCENARIO}", "stand_in:=true", "method:=exact", "episodes:=1", "go:=true",
+            "nav:=builtin",
             f"out:={work / (kind + '.json')}", f"aborted_episode_file:={work / (kind + '_aborted.json')}"]
     if kind == "robot_killed":
         args.append("stand_in_processes:=per_robot")
@@ -145,7 +155,7 @@ def time_fault(kind: str, work: Path, master_uri: str, probe) -> Dict:
         killed = None
         if kind == "robot_killed":
             os.kill(pid_of("/tb3_1/turtlebot3_stand_in"), signal.SIGKILL)
-            killed = time.time()
+            killed = known = time.time()   # known: below, from the robot's last messages
         elif kind == "ctrl_c":
             os.kill(pid_of(MANAGER), signal.SIGINT)
             known = time.time()
@@ -168,14 +178,47 @@ def time_fault(kind: str, work: Path, master_uri: str, probe) -> Dict:
             os.kill(manager, signal.SIGSTOP)
             killed = time.time()
             known = killed + read_yaml(default_config_path("cmd_vel_gate.yaml")).number("permit_timeout")
+        elif kind == "mislocalised":   # known once the scan has fitted badly for its limit
+            fits = []   # (wall time, fit) the manager published
+            rospy.Subscriber("/tb3_0/scan_fit", Float32, lambda msg: fits.append((time.time(), msg.data)))
+            # Not latched: the next kind's launch, on the same master, must not get this pose too.
+            told = rospy.Publisher("/tb3_0/initialpose", PoseWithCovarianceStamped, queue_size=1)
+            estimate = rospy.wait_for_message("/tb3_0/amcl_pose", PoseWithCovarianceStamped, timeout=5.0)
+            wrong = PoseWithCovarianceStamped()
+            wrong.header.frame_id, wrong.header.stamp = "map", rospy.Time.now()
+            wrong.pose.pose.orientation = estimate.pose.pose.orientation
+            p = estimate.pose.pose.position
+            wrong.pose.pose.position.x, wrong.pose.pose.position.y = displaced_position(
+                load_scenario(FAULT_SCENARIO).load_map(), p.x, p.y, DISPLACEMENT)
+            wrong.pose.covariance = [0.02 ** 2 if i in (0, 7, 35) else 0.0 for i in range(36)]
+            deadline = time.time() + 5.0
+            while told.get_num_connections() == 0 and time.time() < deadline:
+                time.sleep(0.05)
+            told.publish(wrong)
+            killed = time.time()
+            time.sleep(0.5)
+            told.unregister()
+            known = killed + 0.2 * limits.scan_fit_lost_scans + 1.0   # a bound until the fits are counted below
         else:   # master_lost: known once the master has not answered for its limit (it answered at the kill)
             os.kill(master_process_pid(master_uri), signal.SIGKILL)
             killed = time.time()
             known = killed + limits.master_lost_after
-        time.sleep(2.5)
+        time.sleep(2.5 + max(0.0, known - time.time()))
         if kind == "manager_hung":   # let it go on: it finds its goals cancelled and ends the episode
             os.kill(manager, signal.SIGCONT)
         records = probe.snapshot()
+        if kind == "mislocalised":   # known with the bad fit that made scan_fit_lost_scans in a row
+            in_a_row = [t for t, fit in fits if t > killed and fit < limits.scan_fit_min]
+            count = 0
+            for t, fit in fits:
+                if t > killed:
+                    count = count + 1 if fit < limits.scan_fit_min else 0
+                    if count == limits.scan_fit_lost_scans:
+                        known = t
+                        break
+            else:
+                raise RuntimeError(f"{kind}: tb3_0's scan_fit was not below {limits.scan_fit_min} "
+                                   f"{limits.scan_fit_lost_scans} times in a row ({len(in_a_row)} below)")
         if kind == "robot_killed":   # known once the first of its parts has been silent for its limit
             last = {part: max((r[0] for r in records["tb3_1"][part] if r[0] <= killed), default=killed)
                     for part in ("odom", "scan")}

@@ -12,10 +12,16 @@ import math
 from pathlib import Path
 from typing import Dict, Iterable, List, Optional, Sequence, Tuple
 
+import numpy as np
+
+from marl_mrta.model.occupancy_map import OccupancyMap
+from marl_mrta.model.scan_fit import ScanFit
+
 ROBOTS = ("tb3_0", "tb3_1")
 ROWS = {"sim_ideal": "simulation, lock-step, ideal", "sim_measured": "simulation, lock-step, measured_tb3",
         "stand_in": "real.launch, stand-in (wall time, amcl)"}
-FAULTS = ("robot_killed", "ctrl_c", "estop", "move_base_abort", "manager_hung", "master_lost")   # master_lost ends the master: last
+FAULTS = ("robot_killed", "ctrl_c", "estop", "move_base_abort", "manager_hung", "mislocalised",
+          "master_lost")   # master_lost ends the master: last
 PAPER = {"simulation": 42.0, "real": 60.0}   # Table 10: makespan [s] of MAPPO, 2 robots
 
 Track = List[Tuple[float, float, float, float]]   # (t, x, y, yaw), sorted by t
@@ -24,6 +30,20 @@ Sample = Tuple[float, float, float]                # (t, linear, angular)
 #: A command or odometry reading counts as motion above these [m/s], [rad/s].
 MOVING_LINEAR = 0.01
 MOVING_ANGULAR = 0.05
+
+
+def displaced_position(occupancy_map: OccupancyMap, x: float, y: float, distance: float,
+                       clearance: float = 0.3) -> Tuple[float, float]:
+    """A free point `distance` m from (x, y), at least `clearance` m from the map's obstacles:
+    where a mislocalisation fault tells amcl the robot stands (navigation then plans from there
+    rather than failing at once in an obstacle)."""
+    near = ScanFit(occupancy_map, clearance).near
+    for k in range(16):
+        angle = 2.0 * math.pi * k / 16
+        px, py = x + distance * math.cos(angle), y + distance * math.sin(angle)
+        if occupancy_map.is_free(px, py) and not near(np.array([px]), np.array([py]))[0]:
+            return px, py
+    raise ValueError(f"no free point {distance:g} m from ({x:.2f}, {y:.2f})")
 
 
 def read_ground_truth(paths: Iterable[Path]) -> Dict[str, Track]:
@@ -161,7 +181,7 @@ def plot(report: Dict, path: Path) -> None:
     axes[1].bar(range(len(names)), [faults[k]["worst_s"] for k in names], color="#c44e52")
     axes[1].axhline(0.5, color="black", linestyle="--", linewidth=1, label="bound 0.5 s")
     axes[1].set_xticks(range(len(names)))
-    axes[1].set_xticklabels([n.replace("_", "\n") for n in names], fontsize=8)
+    axes[1].set_xticklabels([n.replace("_", "\n") for n in names], fontsize=7, rotation=30)
     axes[1].set_ylabel("s from the fault known to every robot stopped")
     axes[1].set_title("stop latency per failure kind (worst robot)")
     axes[1].legend()

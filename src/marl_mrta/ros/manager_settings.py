@@ -126,7 +126,11 @@ def read_manager_settings(params: Dict[str, Any], namespace: str,
     limits = SafetyLimits(odom_silent_after=p.number("odom_silent_after", above=0.0),
                           scan_silent_after=p.number("scan_silent_after", above=0.0),
                           move_base_silent_after=p.number("move_base_silent_after", above=0.0),
-                          master_lost_after=p.number("master_lost_after", above=0.0))
+                          master_lost_after=p.number("master_lost_after", above=0.0),
+                          scan_fit_min=p.number("scan_fit_min", minimum=0.0, maximum=1.0),
+                          scan_fit_lost_scans=p.integer("scan_fit_lost_scans", minimum=1),
+                          scan_fit_tolerance=p.number("scan_fit_tolerance", above=0.0),
+                          scan_fit_max_turn=p.number("scan_fit_max_turn", above=0.0))
     real = RealRobotSettings(reset=p.choice("reset", RESETS), go=p.boolean("go"), limits=limits,
                              reset_drive=p.choice("reset_drive", RESET_DRIVES),
                              reset_timeout=p.number("reset_timeout", above=0.0),

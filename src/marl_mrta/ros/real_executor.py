@@ -6,8 +6,8 @@ What differs from the simulation (docs/real_robots.md): time is the wall clock, 
 simulator; a reset cannot teleport: every robot drives to its start pose through its move_base,
 one at a time by default (`reset_drive`; `reset: current` takes the poses where they stand
 instead), then the episode waits for the operator's go (~go, or `go: true` unattended). Every
-fault stops every robot at once: a robot whose odometry, scan or move_base falls silent, a lost
-ROS master (ros/fleet_link.py watches, ros/safety.py decides), a goal move_base aborts, the
+fault stops every robot at once: a robot whose odometry, scan or move_base falls silent, a robot
+whose scan stops fitting the map where localisation puts it (lost), a lost ROS master (ros/fleet_link.py watches, ros/safety.py decides), a goal move_base aborts, the
 e-stop, the node shutting down. A stop withdraws the drive permit of the robots' cmd_vel gates,
 cancels every goal and sends zero cmd_vel (held for `stop_hold`); the step returns `aborted`
 with the reason, which ends the episode (env/task_env.py) and names the robot and the part.
@@ -24,7 +24,7 @@ import tf2_ros
 from marl_mrta.env.executor import RobotOutcome, StepOutcome
 from marl_mrta.model.fleet import reset_groups
 from marl_mrta.model.scenario import Scenario, footprint_spacing
-from marl_mrta.ros.fleet_link import FleetStop, FleetWatch
+from marl_mrta.ros.fleet_link import FleetStop, FleetWatch, ScanFitWatch
 from marl_mrta.ros.localization_link import LocalizationLink
 from marl_mrta.ros.manager_settings import RealRobotSettings, RosExecutorSettings
 from marl_mrta.ros.move_base_link import MoveBaseLink, await_accepted, cancel_running, send_goals
@@ -57,6 +57,7 @@ class RealExecutor:
         self._step_start = 0.0
         self._lost: Optional[str] = None   # a fault after a step's goals: the next step is aborted
         self._watch: Optional[FleetWatch] = None
+        self._scan_fit: Optional[ScanFitWatch] = None
 
     # ------------------------------------------------------------------ start-up, operator, faults
 
@@ -69,7 +70,11 @@ class RealExecutor:
             wait_wall(base.connected, wait, f"{base.server_name} did not connect")
         for link in self.localizers:
             wait_wall(link.connected, wait, f"{link.namespace}/amcl did not subscribe to initialpose")
-        self._watch = FleetWatch(self.namespaces, self.monitor, self.trip, self.fleet_stop.send_permit)
+        if self.real.limits.scan_fit_min > 0.0:
+            self._scan_fit = ScanFitWatch(self.namespaces, self.scenario.load_map(), self.tf, self.settings.map_frame,
+                                          self.monitor)
+        self._watch = FleetWatch(self.namespaces, self.monitor, self.trip, self.fleet_stop.send_permit,
+                                 self._scan_fit)
         wait_wall(lambda: not self.monitor.missing(), wait, lambda: "nothing heard of " + ", ".join(self.monitor.missing()))
         wait_wall(lambda: all(link.pose() is not None for link in self.localizers), wait,
                   lambda: "no amcl_pose from " + ", ".join(link.namespace for link in self.localizers
@@ -225,14 +230,15 @@ class RealExecutor:
                     "reset: " + ", ".join(self.namespaces[i] for i in group if self.bases[i].result is None)
                     + f" did not reach the start pose within {self.real.reset_timeout:.0f} s of wall time")
                 self.trip(reason)
-                raise SimulatorLost(f"reset failed: {reason}")
+                raise SimulatorLost(reason)   # the manager says "reset failed: "
             if rospy.is_shutdown():
                 raise SimulatorLost("node shutting down")
             time.sleep(POLL)
         failed = self._failed_goal(group)
         if failed:
-            self.trip(failed)
-            raise SimulatorLost(f"reset failed: {failed}")
+            reason = self.monitor.reason or failed   # a stop ends the goals too: its reason comes first
+            self.trip(reason)
+            raise SimulatorLost(reason)
 
     def _await_go(self) -> None:
         if self.real.go:

@@ -1,8 +1,9 @@
 """The safety rules of real robots, without ROS: when the fleet must stop, and why.
 
 The real executor (ros/real_executor.py) reports to a SafetyMonitor every message it hears from
-each robot (odometry, scan, move_base status) and every answer or failure of the ROS master, and
-asks it, several times a second, whether to stop. Once tripped, the monitor keeps its first
+each robot (odometry, scan, move_base status), how well each scan fits the map where
+localisation puts the robot (model/scan_fit.py), and every answer or failure of the ROS master,
+and asks it, several times a second, whether to stop. Once tripped, the monitor keeps its first
 reason until it is re-armed (a new episode's reset), so a stop is never undone by a robot that
 comes back. Faults from elsewhere (an e-stop, the node shutting down, a move_base goal that
 aborted) trip it directly. Times are seconds of a monotonic wall clock.
@@ -20,12 +21,17 @@ PARTS = ("odom", "scan", "move_base")
 
 @dataclass(frozen=True)
 class SafetyLimits:
-    """How long each part may stay silent, and the master unreachable, before the fleet stops [s]."""
+    """How long each part may stay silent, and the master unreachable, before the fleet stops [s];
+    how well a robot's scan must fit the map, and for how long it may fit worse."""
 
     odom_silent_after: float = 1.0       # turtlebot3_core publishes odometry at 30 Hz
     scan_silent_after: float = 1.0       # the LDS-01 turns at 5 Hz
     move_base_silent_after: float = 2.0  # move_base publishes its action status at 5 Hz
     master_lost_after: float = 1.0       # the ROS master does not answer for this long (a loaded PC stalls it 0.5 s)
+    scan_fit_min: float = 0.5            # share of a scan's returns near the map's obstacles; 0: not watched
+    scan_fit_lost_scans: int = 10        # judged scans in a row below scan_fit_min (2 s of LDS-01) that mean lost
+    scan_fit_tolerance: float = 0.2      # m from an occupied cell that a return may end and still fit
+    scan_fit_max_turn: float = 1.0       # rad/s: scans taken while the robot turns faster are not judged
 
     def silent_after(self, part: str) -> float:
         return {"odom": self.odom_silent_after, "scan": self.scan_silent_after,
@@ -45,11 +51,24 @@ class SafetyMonitor:
         self._reason = ""
         self._tripped_at: Optional[float] = None
         self._armed_at: Optional[float] = None        # silence counts from here at the earliest
+        self._unfit: Dict[int, Tuple[float, int, float]] = {}   # robot -> (first, count, latest) of its bad fits in a row
 
     # ------------------------------------------------------------------ reports
     def heard(self, robot: int, part: str, now: float) -> None:
         with self._lock:
             self._heard[(robot, part)] = now
+
+    def fitted(self, robot: int, fit: Optional[float], now: float) -> None:
+        """The fit of the robot's latest scan at its estimated pose (None: not judged, neither
+        good nor bad: too few returns, or the robot turned fast)."""
+        if fit is None:
+            return
+        with self._lock:
+            if fit >= self.limits.scan_fit_min:
+                self._unfit.pop(robot, None)
+            else:
+                first, count, _ = self._unfit.get(robot, (now, 0, fit))
+                self._unfit[robot] = (first, count + 1, fit)
 
     def master_answered(self, now: float) -> None:
         with self._lock:
@@ -78,6 +97,11 @@ class SafetyMonitor:
                     silent = now - last
                     if silent > self.limits.silent_after(part):
                         return f"{ns}: {part} silent for {silent:.1f} s"
+                first, count, fit = self._unfit.get(i, (now, 0, 1.0))
+                if count >= self.limits.scan_fit_lost_scans:
+                    return (f"{ns}: localisation lost: its last {count} scans fit the map at the estimated pose below "
+                            f"{self.limits.scan_fit_min * 100:.0f} % ({now - first:.1f} s, the latest "
+                            f"{fit * 100:.0f} %)")
             if self._master_ok is not None and now - self._master_ok > self.limits.master_lost_after:
                 detail = f" ({self._master_error})" if self._master_error else ""
                 return f"ROS master unreachable for {now - self._master_ok:.1f} s{detail}"
