@@ -9,8 +9,8 @@ makespan, allocation and logic consistency, amcl's localisation error against th
 ground truth file, the command-to-motion latency measured in the graph (cmd_vel against odom),
 the episode's wall time; then the stop latency of real.launch per failure kind (a robot killed,
 Ctrl-C, the e-stop, a move_base abort, the task manager hung: the cmd_vel gates' permit times
-out, a robot mislocalised: amcl told it stands 1 m off, the ROS master lost). Writes <out>/sim_to_real.json and
-<out>/sim_to_real.png (about 8 minutes). Without --policy a policy is trained first (embedded,
+out, a robot mislocalised: amcl told it stands 1 m off, the ROS master lost). Writes
+<out>/sim_to_real.json and <out>/sim_to_real.png (about 9 minutes). Without --policy a policy is trained first (embedded,
 sequential preset, seconds). `sim_to_real probe --robots ... --out FILE` is the recording node
 it starts in each launch.
 """
@@ -42,8 +42,8 @@ MEASURED_FROM = {"robot_killed": "tb3_1's first part silent for its limit after 
                                 "limit",
                  "manager_hung": "SIGSTOP of the task manager + the cmd_vel gates' permit_timeout (1.0 s): its last "
                                  "permit too old",
-                 "mislocalised": "tb3_0's scan_fit below scan_fit_min for the scan_fit_lost_scans'th time in a row (10) "
-                                 "after an initialpose 1 m from its estimate (2 cm spread)"}
+                 "mislocalised": "the 10th scan_fit in a row (scan_fit_lost_scans) below scan_fit_min after tb3_0's "
+                                 "amcl was told a pose 1 m from its estimate (2 cm spread)"}
 #: How far from its estimate the mislocalisation fault tells amcl the robot stands [m].
 DISPLACEMENT = 1.0
 #: The scenario of the stop-latency runs.
@@ -180,7 +180,7 @@ def time_fault(kind: str, work: Path, master_uri: str, probe) -> Dict:
             known = killed + read_yaml(default_config_path("cmd_vel_gate.yaml")).number("permit_timeout")
         elif kind == "mislocalised":   # known once the scan has fitted badly for its limit
             fits = []   # (wall time, fit) the manager published
-            rospy.Subscriber("/tb3_0/scan_fit", Float32, lambda msg: fits.append((time.time(), msg.data)))
+            fit_topic = rospy.Subscriber("/tb3_0/scan_fit", Float32, lambda msg: fits.append((time.time(), msg.data)))
             # Not latched: the next kind's launch, on the same master, must not get this pose too.
             told = rospy.Publisher("/tb3_0/initialpose", PoseWithCovarianceStamped, queue_size=1)
             estimate = rospy.wait_for_message("/tb3_0/amcl_pose", PoseWithCovarianceStamped, timeout=5.0)
@@ -208,6 +208,7 @@ def time_fault(kind: str, work: Path, master_uri: str, probe) -> Dict:
             os.kill(manager, signal.SIGCONT)
         records = probe.snapshot()
         if kind == "mislocalised":   # known with the bad fit that made scan_fit_lost_scans in a row
+            fit_topic.unregister()
             in_a_row = [t for t, fit in fits if t > killed and fit < limits.scan_fit_min]
             count = 0
             for t, fit in fits:

@@ -7,8 +7,9 @@ simulator; a reset cannot teleport: every robot drives to its start pose through
 one at a time by default (`reset_drive`; `reset: current` takes the poses where they stand
 instead), then the episode waits for the operator's go (~go, or `go: true` unattended). Every
 fault stops every robot at once: a robot whose odometry, scan or move_base falls silent, a robot
-whose scan stops fitting the map where localisation puts it (lost), a lost ROS master (ros/fleet_link.py watches, ros/safety.py decides), a goal move_base aborts, the
-e-stop, the node shutting down. A stop withdraws the drive permit of the robots' cmd_vel gates,
+whose scan stops fitting the map where localisation puts it (lost), a lost ROS master
+(ros/fleet_link.py watches, ros/safety.py decides), a goal move_base aborts, the e-stop, the
+node shutting down. A stop withdraws the drive permit of the robots' cmd_vel gates,
 cancels every goal and sends zero cmd_vel (held for `stop_hold`); the step returns `aborted`
 with the reason, which ends the episode (env/task_env.py) and names the robot and the part.
 """

@@ -51,7 +51,8 @@ class SafetyMonitor:
         self._reason = ""
         self._tripped_at: Optional[float] = None
         self._armed_at: Optional[float] = None        # silence counts from here at the earliest
-        self._unfit: Dict[int, Tuple[float, int, float]] = {}   # robot -> (first, count, latest) of its bad fits in a row
+        # robot -> (first, count, latest) of its bad fits in a row
+        self._unfit: Dict[int, Tuple[float, int, float]] = {}
 
     # ------------------------------------------------------------------ reports
     def heard(self, robot: int, part: str, now: float) -> None:
