@@ -56,9 +56,11 @@ def test_probed_bound_is_never_above_the_optimum_and_mostly_meets_it():
     assert probed >= 25 and raised >= 20 and met >= 20
 
 
-def test_probes_share_one_budget():
+def test_probes_share_one_budget(monkeypatch):
     """Caps CP-SAT cannot decide each take a share of the budget, and all of them the budget
-    (CP-SAT stops a hair past a deterministic limit)."""
+    (CP-SAT stops a hair past a deterministic limit). The wall-clock guard is lifted: on a loaded
+    machine it cut a share short, and a fifth cap fitted in what was left."""
+    monkeypatch.setattr(cpsat, "WALL_FACTOR", 1000.0)
     inst = random_instance(random.Random(3), 6, 14)
     start = solve_relaxation(inst, CpSatBudget(time_limit=0.5), "asynchronous").lower_bound
     result = probe_lower_bound(inst, CpSatBudget(time_limit=0.5), "stepwise", start, 10 * start)
