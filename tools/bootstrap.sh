@@ -27,7 +27,7 @@ debian_pkgs=(
   python3-sensor-msgs python3-geometry-msgs python3-std-msgs python3-std-srvs
   python3-visualization-msgs python3-rosgraph-msgs python3-rostopic python3-rosnode
   python3-rosservice python3-rosmsg rosbash rviz ros-robot-state-publisher
-  python3-venv python3-pip python3-yaml python3-numpy python3-matplotlib python3-pytest
+  python3-venv python3-pip python3-yaml python3-numpy python3-scipy python3-matplotlib python3-pytest
   libpng-dev python3-pil
   ros-std-msgs ros-geometry-msgs ros-sensor-msgs ros-nav-msgs ros-std-srvs ros-actionlib-msgs
   ros-move-base-msgs ros-visualization-msgs ros-rosgraph-msgs
@@ -42,7 +42,7 @@ noetic_pkgs=(
   ros-noetic-visualization-msgs ros-noetic-std-srvs ros-noetic-nodelet ros-noetic-pluginlib
   ros-noetic-move-base ros-noetic-amcl ros-noetic-map-server ros-noetic-navfn
   ros-noetic-dwa-local-planner ros-noetic-costmap-2d ros-noetic-fake-localization
-  libyaml-cpp-dev libgtest-dev python3-yaml python3-numpy python3-matplotlib libpng-dev python3-pil
+  libyaml-cpp-dev libgtest-dev python3-yaml python3-numpy python3-scipy python3-matplotlib libpng-dev python3-pil
   xvfb imagemagick x11-utils
   openssh-server openssh-client python3-paramiko
 )
