@@ -16,6 +16,7 @@ import math
 from typing import Optional, Sequence, Tuple
 
 import numpy as np
+from scipy import ndimage
 
 from marl_mrta.model.occupancy_map import OCCUPIED, OccupancyMap
 
@@ -75,19 +76,9 @@ class ScanFit:
 def grow(mask: np.ndarray, radius_cells: float) -> np.ndarray:
     """`mask` grown by a disc of `radius_cells`: cells whose centre lies within that many cells of
     a set cell's centre."""
-    reach = int(math.floor(radius_cells))
-    grown = mask.copy()
-    height, width = mask.shape
-    for d_row in range(-reach, reach + 1):
-        for d_col in range(-reach, reach + 1):
-            if (d_row, d_col) == (0, 0) or d_row * d_row + d_col * d_col > radius_cells * radius_cells:
-                continue
-            src_rows = slice(max(0, -d_row), height - max(0, d_row))
-            dst_rows = slice(max(0, d_row), height - max(0, -d_row))
-            src_cols = slice(max(0, -d_col), width - max(0, d_col))
-            dst_cols = slice(max(0, d_col), width - max(0, -d_col))
-            grown[dst_rows, dst_cols] |= mask[src_rows, src_cols]
-    return grown
+    if not mask.any():   # the transform would measure from outside the grid
+        return mask.copy()
+    return ndimage.distance_transform_edt(~mask) <= radius_cells
 
 
 def planar(x: float, y: float, yaw: float):
