@@ -4,7 +4,8 @@ Exits 1 when a test failed. That includes a result file that is empty or truncat
 that died before writing its results (e.g. shut down with its launch). rostest and
 catkin_test_results count such a test as passed.
 
-Skipped tests are listed first, one line each with the reason. A rostest writes two files: the
+Skipped tests are listed first, one line each with the reason, then failed ones, each with the
+first line of what failed (the closing lines are what a CI log shows of a long run). A rostest writes two files: the
 test node's (rosunit-NAME.xml, its test cases) and rostest's own (one case, testNAME: the node ran
 and wrote results). When every case of the node's file is skipped, rostest's case counts as
 skipped too, not as passed.
@@ -20,7 +21,16 @@ def _cases(root):
         yield from suite.iter("testcase")
 
 
-def count(results_dir: Path, skip_lines=None):
+def _what_failed(problem):
+    """The first line of a failure: pytest writes it as the message, rosunit before the traceback."""
+    for text in (problem.get("message"), problem.text):
+        lines = [line.strip() for line in (text or "").splitlines() if line.strip()]
+        if lines:
+            return lines[0][:300]
+    return problem.get("type") or ""
+
+
+def count(results_dir: Path, skip_lines=None, failure_lines=None):
     passed = failed = skipped = 0
     documents = []
     for xml_file in sorted(results_dir.rglob("*.xml")):
@@ -28,6 +38,8 @@ def count(results_dir: Path, skip_lines=None):
             documents.append((xml_file, ET.parse(xml_file).getroot()))
         except ET.ParseError:
             failed += 1  # a truncated result file means the test process died
+            if failure_lines is not None:
+                failure_lines.append(f"failed: {xml_file.name}: the result file is empty or truncated (the test died)")
     skipped_nodes = set()
     for xml_file, root in documents:
         cases = list(_cases(root))
@@ -36,8 +48,12 @@ def count(results_dir: Path, skip_lines=None):
     for xml_file, root in documents:
         rostest_file = xml_file.name.startswith("rostest-")
         for case in _cases(root):
-            if case.find("failure") is not None or case.find("error") is not None:
+            problem = case.find("failure") if case.find("failure") is not None else case.find("error")
+            if problem is not None:
                 failed += 1
+                if failure_lines is not None:
+                    what = _what_failed(problem)
+                    failure_lines.append(f"failed: {xml_file.name}: {case.get('name', '')}" + (f": {what}" if what else ""))
             elif case.find("skipped") is not None:
                 skipped += 1
                 if skip_lines is not None:
@@ -51,9 +67,9 @@ def count(results_dir: Path, skip_lines=None):
 
 
 def main(argv) -> int:
-    skip_lines = []
-    passed, failed, skipped = count(Path(argv[0]), skip_lines)
-    for line in skip_lines:
+    skip_lines, failure_lines = [], []
+    passed, failed, skipped = count(Path(argv[0]), skip_lines, failure_lines)
+    for line in skip_lines + failure_lines:
         print(line)
     print(f"tests: {passed} passed, {failed} failed, {skipped} skipped")
     return 1 if failed else 0

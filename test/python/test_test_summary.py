@@ -42,3 +42,20 @@ def test_a_rostest_whose_node_skipped_every_case_counts_as_skipped(tmp_path, cap
     assert test_summary.main([str(tmp_path)]) == 0
     assert capsys.readouterr().out.strip().splitlines() == [
         "skipped: test_tour: stock navigation not available", "tests: 2 passed, 0 failed, 2 skipped"]
+
+
+def test_each_failure_is_named_with_what_failed_before_the_closing_line(tmp_path, capsys):
+    # The closing lines are what a CI log keeps of a long run: they must say which test failed and why.
+    (tmp_path / "rosunit-nav_stock.xml").write_text(
+        '<testsuite><testcase name="test_tour"><failure type="AssertionError">0.18 not less than or equal to 0.17 : '
+        'goal A4 reached 0.180 rad off\n  File "nav_stock_test.py", line 66</failure></testcase></testsuite>')
+    (tmp_path / "pytest-python.xml").write_text(
+        '<testsuite><testcase name="test_probes"><failure message="assert 5 == 4">trace</failure></testcase>'
+        '<testcase name="test_ok"/></testsuite>')
+    (tmp_path / "rosunit-died.xml").write_text("")
+    assert test_summary.main([str(tmp_path)]) == 1
+    assert capsys.readouterr().out.strip().splitlines() == [
+        "failed: rosunit-died.xml: the result file is empty or truncated (the test died)",
+        "failed: pytest-python.xml: test_probes: assert 5 == 4",
+        "failed: rosunit-nav_stock.xml: test_tour: 0.18 not less than or equal to 0.17 : goal A4 reached 0.180 rad off",
+        "tests: 1 passed, 3 failed, 0 skipped"]
