@@ -29,6 +29,14 @@ STOCK_GOALS = 4  # of the tour: the west half, with legs past both columns
 #: STALE_DISTANCE m from it) and the goal is sent once more; any other result counts as it is.
 STALE_WITHIN = 0.5
 STALE_DISTANCE = 0.5
+#: Stock DWA reports a goal reached when its control cycle finds the robot within the tolerances
+#: and "stopped": turning slower than theta_stopped_vel and driving slower than trans_stopped_vel
+#: (0.1 rad/s and 0.1 m/s, base_local_planner's defaults; TurtleBot3's files keep them). The robot
+#: may go on at that speed until the zero command lands, a control period (10 Hz) later, so the
+#: ground truth at the result may be that much past the tolerance (A4 was found 0.1716 rad off).
+CONTROL_PERIOD = 1.0 / 10.0
+STOPPED_YAW = 0.1 * CONTROL_PERIOD
+STOPPED_XY = 0.1 * CONTROL_PERIOD
 
 
 class StockTourTest(StockGraphCase):
@@ -62,8 +70,9 @@ class StockTourTest(StockGraphCase):
             _, x, y, yaw, _, _ = robot.truth_at(t1)
             error_xy = ((x - goal[0]) ** 2 + (y - goal[1]) ** 2) ** 0.5
             error_yaw = abs(angle_diff(yaw, goal[2]))
-            self.assertLessEqual(error_xy, XY_TOLERANCE, "goal %s reached %.3f m away" % (label, error_xy))
-            self.assertLessEqual(error_yaw, YAW_TOLERANCE, "goal %s reached %.3f rad off" % (label, error_yaw))
+            self.assertLessEqual(error_xy, XY_TOLERANCE + STOPPED_XY, "goal %s reached %.3f m away" % (label, error_xy))
+            self.assertLessEqual(error_yaw, YAW_TOLERANCE + STOPPED_YAW,
+                                 "goal %s reached %.4f rad off" % (label, error_yaw))
         if stale:
             print("nav_stock: goals %s reported reached at once where the robot stood (ros-planning/navigation#949), "
                   "sent again" % ", ".join(stale))
