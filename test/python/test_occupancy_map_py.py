@@ -94,6 +94,32 @@ def test_origin_yaw_rotates_the_grid():
     assert grid_map.world_to_cell(1.25, 2.75) is None
 
 
+
+def test_arrays_of_points_and_cells_follow_the_same_rule_as_one():
+    rng = np.random.default_rng(3)
+    grid_map = OccupancyMap(np.zeros((7, 9), dtype=np.int8), 0.25, MapOrigin(-1.0, 0.5, 0.7))
+    xs, ys = rng.uniform(-2.5, 1.0, 400), rng.uniform(0.0, 3.5, 400)
+    cols, rows, inside = grid_map.world_to_cells(xs, ys)
+    for x, y, col, row, on_map in zip(xs, ys, cols, rows, inside):
+        cell = grid_map.world_to_cell(x, y)
+        assert (cell is not None) == on_map
+        if on_map:
+            assert cell == GridCell(col, row)
+    assert inside.sum() > 50 and (~inside).sum() > 50
+    centres = grid_map.cell_to_world(np.array([0, 8, 3]), np.array([0, 6, 2]))
+    for k, (col, row) in enumerate([(0, 0), (8, 6), (3, 2)]):
+        assert (centres.x[k], centres.y[k]) == pytest.approx(grid_map.cell_to_world(col, row))
+
+
+def test_clearance_is_the_distance_to_the_nearest_cell_that_is_not_free():
+    grid = np.zeros((5, 8), dtype=np.int8)
+    grid[2, 0] = OCCUPIED
+    grid[4, 7] = UNKNOWN
+    clearance = OccupancyMap(grid, 0.5, MapOrigin(0.0, 0.0, 0.0)).clearance()
+    assert clearance[2, 0] == 0.0 and clearance[4, 7] == 0.0
+    assert clearance[2, 3] == pytest.approx(1.5)          # three cells right of the occupied one
+    assert clearance[3, 6] == pytest.approx(math.hypot(0.5, 0.5))   # next to the unknown one
+
 def test_save_then_load_round_trips(tmp_path):
     grid = np.array([[OCCUPIED, FREE, UNKNOWN], [FREE, FREE, OCCUPIED]], dtype=np.int8)
     original = OccupancyMap(grid, 0.05, MapOrigin(-2.0, 3.5, 0.0))

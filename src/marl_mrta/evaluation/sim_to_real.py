@@ -12,10 +12,7 @@ import math
 from pathlib import Path
 from typing import Dict, Iterable, List, Optional, Sequence, Tuple
 
-import numpy as np
-
 from marl_mrta.model.occupancy_map import OccupancyMap
-from marl_mrta.model.scan_fit import ScanFit
 
 ROBOTS = ("tb3_0", "tb3_1")
 ROWS = {"sim_ideal": "simulation, lock-step, ideal", "sim_measured": "simulation, lock-step, measured_tb3",
@@ -37,11 +34,12 @@ def displaced_position(occupancy_map: OccupancyMap, x: float, y: float, distance
     """A free point `distance` m from (x, y), at least `clearance` m from the map's obstacles:
     where a mislocalisation fault tells amcl the robot stands (navigation then plans from there
     rather than failing at once in an obstacle)."""
-    near = ScanFit(occupancy_map, clearance).near
+    clear = occupancy_map.clearance()
     for k in range(16):
         angle = 2.0 * math.pi * k / 16
         px, py = x + distance * math.cos(angle), y + distance * math.sin(angle)
-        if occupancy_map.is_free(px, py) and not near(np.array([px]), np.array([py]))[0]:
+        cell = occupancy_map.world_to_cell(px, py)
+        if cell is not None and clear[cell.row, cell.col] > clearance:
             return px, py
     raise ValueError(f"no free point {distance:g} m from ({x:.2f}, {y:.2f})")
 

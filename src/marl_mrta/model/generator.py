@@ -40,7 +40,8 @@ from scipy import ndimage
 
 from marl_mrta.common.paths import package_root
 from marl_mrta.common.robot_names import default_robot_names
-from marl_mrta.model.occupancy_map import FREE, OCCUPIED, MapFileError, MapOrigin, OccupancyMap, load_map, save_map
+from marl_mrta.model.occupancy_map import (FREE, OCCUPIED, MapFileError, MapOrigin, OccupancyMap, load_map,
+                                           load_navigation_map, save_map)
 from marl_mrta.model.scenario import Scenario, ScenarioError, footprint_radius, footprint_spacing, load_scenario
 from marl_mrta.model.travel import TravelModel, nominal_travel_table, suggest_nav_thresholds
 
@@ -191,15 +192,14 @@ def generate_map(layout: str, width: float, height: float, rng: random.Random) -
 def free_positions(grid_map: OccupancyMap, clearance: float, radius: float) -> np.ndarray:
     """(k, 2) world centres of the cells at least `clearance` from any obstacle (or unknown cell)
     within the largest region navigable for a robot of `radius` (8-connected cells farther than it)."""
-    distance = ndimage.distance_transform_edt(grid_map.grid == FREE) * grid_map.resolution
+    distance = grid_map.clearance()
     labels, count = ndimage.label(distance > radius + grid_map.resolution, structure=np.ones((3, 3)))
     if count == 0:
         return np.zeros((0, 2))
     sizes = ndimage.sum(np.ones_like(labels), labels, index=range(1, count + 1))
     main = labels == 1 + int(np.argmax(sizes))
     rows, cols = np.nonzero(main & (distance >= clearance))
-    res = grid_map.resolution
-    return np.column_stack([grid_map.origin.x + (cols + 0.5) * res, grid_map.origin.y + (rows + 0.5) * res])
+    return np.column_stack(grid_map.cell_to_world(cols, rows))
 
 
 def draw_poses(candidates: np.ndarray, count: int, spacing: float, rng: random.Random) -> List[Tuple[float, float, float]]:
@@ -315,7 +315,7 @@ def generate_scenario(request: ScenarioRequest, seed: int, out_dir: Path,
     elif is_map_file(request.layout):
         map_path = Path(request.layout).resolve()
         try:
-            grid_map = load_map(map_path)
+            grid_map = load_navigation_map(map_path)
         except MapFileError as error:
             raise GeneratorError(f"layout: {error}") from None
         map_file = str(map_path)

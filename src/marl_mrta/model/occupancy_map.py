@@ -35,9 +35,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import NamedTuple, Optional, Union
+from typing import NamedTuple, Optional, Tuple, Union
 
 import numpy as np
+from scipy import ndimage
 from marl_mrta.common.yaml_file import YamlFileError, load_yaml_file
 
 OCCUPIED = 100
@@ -116,24 +117,38 @@ class OccupancyMap:
     def world_to_cell(self, x: float, y: float) -> Optional[GridCell]:
         """The cell containing world point (x, y), or None outside the map.
         A point on a cell border belongs to the cell above/right of it (floor)."""
-        dx, dy = x - self.origin.x, y - self.origin.y
-        cos_yaw, sin_yaw = math.cos(self.origin.yaw), math.sin(self.origin.yaw)
-        # Rotate into the map's own axes (map_server maps may carry an origin yaw).
-        map_x = cos_yaw * dx + sin_yaw * dy
-        map_y = -sin_yaw * dx + cos_yaw * dy
-        col = math.floor(map_x / self.resolution)
-        row = math.floor(map_y / self.resolution)
+        along_x, along_y = self._in_cells(x, y)
+        col, row = math.floor(along_x), math.floor(along_y)
         if not self.contains_cell(col, row):
             return None
         return GridCell(col, row)
 
+    def world_to_cells(self, xs: np.ndarray, ys: np.ndarray) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """world_to_cell for arrays of points: columns, rows, and whether each point is on the map."""
+        along_x, along_y = self._in_cells(xs, ys)
+        cols, rows = np.floor(along_x).astype(int), np.floor(along_y).astype(int)
+        return cols, rows, (cols >= 0) & (cols < self.width) & (rows >= 0) & (rows < self.height)
+
+    def _in_cells(self, x, y):
+        """World point(s) in the map's own axes, in cells (floats or numpy arrays)."""
+        dx, dy = x - self.origin.x, y - self.origin.y
+        cos_yaw, sin_yaw = math.cos(self.origin.yaw), math.sin(self.origin.yaw)
+        # Rotate into the map's own axes (map_server maps may carry an origin yaw).
+        return (cos_yaw * dx + sin_yaw * dy) / self.resolution, (-sin_yaw * dx + cos_yaw * dy) / self.resolution
+
     def cell_to_world(self, col: int, row: int) -> WorldPoint:
-        """World coordinates of the centre of cell (col, row) (not checked against the bounds)."""
+        """World coordinates of the centre of cell (col, row) (not checked against the bounds);
+        numpy arrays of columns and rows give arrays."""
         map_x = (col + 0.5) * self.resolution
         map_y = (row + 0.5) * self.resolution
         cos_yaw, sin_yaw = math.cos(self.origin.yaw), math.sin(self.origin.yaw)
         return WorldPoint(self.origin.x + cos_yaw * map_x - sin_yaw * map_y,
                           self.origin.y + sin_yaw * map_x + cos_yaw * map_y)
+
+    def clearance(self) -> np.ndarray:
+        """Per cell, metres from its centre to the nearest centre of a cell that is not FREE (0 on
+        those; unknown cells count as obstacles, as a robot cannot know what is there)."""
+        return ndimage.distance_transform_edt(self.grid == FREE) * self.resolution
 
     def value_at(self, x: float, y: float) -> int:
         """Grid value at world point (x, y); UNKNOWN outside the map."""
@@ -355,6 +370,18 @@ def _number(yaml_path: Path, config: dict, key: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         raise MapFileError(f"{yaml_path}: {key}: must be a number, got {value!r}")
     return float(value)
+
+
+def load_navigation_map(yaml_path: PathLike) -> OccupancyMap:
+    """load_map for a floor that robots navigate: its origin yaw must be 0. map_server publishes
+    the yaw, but move_base's costmaps (stock and built-in) and stock amcl ignore it, so a rotated map
+    would put the obstacles navigation sees elsewhere than the ones localisation and the scenario
+    see. map_saver always writes 0."""
+    grid_map = load_map(yaml_path)
+    if abs(grid_map.origin.yaw) > 1e-9:
+        raise MapFileError(f"{yaml_path}: origin: yaw {grid_map.origin.yaw:g} rad is not 0: move_base's costmaps and "
+                           "amcl ignore a map's origin yaw; rotate the image instead")
+    return grid_map
 
 
 def _origin(yaml_path: Path, value) -> MapOrigin:

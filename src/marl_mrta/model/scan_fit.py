@@ -62,12 +62,7 @@ class ScanFit:
 
     def near(self, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
         """Whether each world point lies within the tolerance of an occupied cell (off the map: no)."""
-        m = self.occupancy_map
-        dx, dy = xs - m.origin.x, ys - m.origin.y
-        cos_yaw, sin_yaw = math.cos(m.origin.yaw), math.sin(m.origin.yaw)
-        cols = np.floor((cos_yaw * dx + sin_yaw * dy) / m.resolution).astype(int)
-        rows = np.floor((-sin_yaw * dx + cos_yaw * dy) / m.resolution).astype(int)
-        inside = (cols >= 0) & (cols < m.width) & (rows >= 0) & (rows < m.height)
+        cols, rows, inside = self.occupancy_map.world_to_cells(xs, ys)
         result = np.zeros(xs.shape, dtype=bool)
         result[inside] = self.near_obstacle[rows[inside], cols[inside]]
         return result
