@@ -146,10 +146,10 @@ def test_every_method_completes_every_generated_scenario(generated):
             assert record.complete, (scenario.name, "random")
 
 
-def _long_floor(directory: Path) -> Path:
+def _long_floor(directory: Path, yaw: float = 0.0) -> Path:
     """A floor of one's own as SLAM leaves it: a 30 x 3 m hall amid unknown space, with a closed
     1 x 1 m box in it whose inside no robot reaches; end to end its legs are far beyond the goal
-    timeout (about 30 m at 0.22 m/s)."""
+    timeout (about 30 m at 0.22 m/s). `yaw`: the map's origin yaw."""
     cols, rows = 640, 100
     grid = np.full((rows, cols), UNKNOWN, dtype=np.int8)
     grid[20:80, 10:630] = OCCUPIED
@@ -158,7 +158,7 @@ def _long_floor(directory: Path) -> Path:
     grid[43:59, 303:319] = FREE
     directory.mkdir(parents=True, exist_ok=True)
     path = directory / "long_floor.yaml"
-    save_map(OccupancyMap(grid, 0.05, MapOrigin(-2.0, -1.0, 0.0)), path)
+    save_map(OccupancyMap(grid, 0.05, MapOrigin(-2.0, -1.0, yaw)), path)
     return path
 
 
@@ -186,6 +186,11 @@ def test_a_floor_of_ones_own_gives_reachable_poses_within_the_goal_timeout(tmp_p
 def test_a_floor_that_is_no_map_is_one_line(tmp_path):
     with pytest.raises(GeneratorError, match=r"^layout: .*missing\.yaml: cannot read"):
         generate_scenario(ScenarioRequest(layout=str(tmp_path / "missing.yaml")), 0, tmp_path)
+    # Navigation (stock and built-in) ignores a map's origin yaw; the scenario would not.
+    rotated = _long_floor(tmp_path / "rotated", yaw=math.pi / 2)
+    with pytest.raises(GeneratorError, match=r"^layout: .*long_floor\.yaml: origin: yaw 1\.5708 rad is not 0: "
+                                             r"move_base's costmaps and amcl ignore a map's origin yaw"):
+        generate_scenario(ScenarioRequest(layout=str(rotated)), 0, tmp_path)
     with pytest.raises(GeneratorError, match=r"^layout: '.*floor\.png' is not one of .* or a map YAML file$"):
         generate_scenario(ScenarioRequest(layout=str(tmp_path / "floor.png")), 0, tmp_path)
 

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Dict, List, Optional, Sequence, Tuple, Union
 
-from marl_mrta.model.occupancy_map import FREE, OCCUPIED, MapFileError, OccupancyMap, load_map
+from marl_mrta.model.occupancy_map import FREE, OCCUPIED, MapFileError, OccupancyMap, load_map, load_navigation_map
 from marl_mrta.common.paths import resolve_resource
 from marl_mrta.common.config import ConfigError
 from marl_mrta.model.reward import NavThresholds, check_reward_overrides
@@ -207,7 +207,7 @@ def load_scenario(path: Union[str, Path], nav_time_required: bool = True) -> Sce
     reader.attributes(map_element, ("file",))
     map_path = reader.resource(map_element, "file")
     try:
-        grid_map = load_map(map_path)
+        grid_map = load_navigation_map(map_path)
     except MapFileError as error:
         raise reader.fail(map_element, f"cannot load the map: {error}") from None
 
