@@ -157,6 +157,11 @@ void MoveBaseRos::onMap(const nav_msgs::OccupancyGrid::ConstPtr& msg) {
     for (StaticLayer* layer : costmap->layersOfType<StaticLayer>()) layer->setMap(occupancy);
   }
   ROS_INFO("%s: map %u x %u at %.3f m", log_name_.c_str(), msg->info.width, msg->info.height, msg->info.resolution);
+  if (occupancy.origin_yaw != 0.0) {  // stock costmap_2d ignores it silently; the map's obstacles then sit elsewhere
+    ROS_WARN("%s: the map's origin yaw %.4f rad is ignored, as stock costmap_2d ignores it: the costmaps place the "
+             "grid unrotated; rotate the map image and give a yaw of 0",
+             log_name_.c_str(), occupancy.origin_yaw);
+  }
 }
 
 bool MoveBaseRos::onMakePlan(nav_msgs::GetPlan::Request& req, nav_msgs::GetPlan::Response& res) {
