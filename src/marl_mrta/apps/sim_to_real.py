@@ -129,7 +129,8 @@ def time_fault(kind: str, work: Path, master_uri: str, probe) -> Dict:
     from std_msgs.msg import Float32
     from std_srvs.srv import Trigger
     from marl_mrta.model.scenario import load_scenario
-    from marl_mrta.ros.safety import SafetyLimits
+    from marl_mrta.ros.manager_settings import read_manager_settings
+    from marl_mrta.ros.safety import SafetyMonitor
 
     def pid_of(name: str) -> int:
         uri = rosnode.get_api_uri(rosgraph.Master("/sim_to_real", master_uri=master_uri), name,
@@ -151,7 +152,8 @@ def time_fault(kind: str, work: Path, master_uri: str, probe) -> Dict:
                 raise RuntimeError(f"{kind}: the robots did not start driving ({work / (kind + '.log')})")
             time.sleep(0.1)
         time.sleep(3.0)
-        limits = SafetyLimits()
+        # The limits the manager runs with (its rosparams over config/task_manager.yaml).
+        limits = read_manager_settings(rospy.get_param(MANAGER), MANAGER).real.limits
         killed = None
         if kind == "robot_killed":
             os.kill(pid_of("/tb3_1/turtlebot3_stand_in"), signal.SIGKILL)
@@ -209,17 +211,17 @@ def time_fault(kind: str, work: Path, master_uri: str, probe) -> Dict:
         records = probe.snapshot()
         if kind == "mislocalised":   # known with the bad fit that made scan_fit_lost_scans in a row
             fit_topic.unregister()
-            in_a_row = [t for t, fit in fits if t > killed and fit < limits.scan_fit_min]
-            count = 0
+            below = [t for t, fit in fits if t > killed and fit < limits.scan_fit_min]
+            rule = SafetyMonitor(["tb3_0"], limits)   # the manager's rule, told the fits it published
             for t, fit in fits:
                 if t > killed:
-                    count = count + 1 if fit < limits.scan_fit_min else 0
-                    if count == limits.scan_fit_lost_scans:
+                    rule.fitted(0, fit, t)
+                    if rule.fault(t):
                         known = t
                         break
             else:
                 raise RuntimeError(f"{kind}: tb3_0's scan_fit was not below {limits.scan_fit_min} "
-                                   f"{limits.scan_fit_lost_scans} times in a row ({len(in_a_row)} below)")
+                                   f"{limits.scan_fit_lost_scans} times in a row ({len(below)} below)")
         if kind == "robot_killed":   # known once the first of its parts has been silent for its limit
             last = {part: max((r[0] for r in records["tb3_1"][part] if r[0] <= killed), default=killed)
                     for part in ("odom", "scan")}
