@@ -53,7 +53,8 @@ def count(results_dir: Path, skip_lines=None, failure_lines=None):
                 failed += 1
                 if failure_lines is not None:
                     what = _what_failed(problem)
-                    failure_lines.append(f"failed: {xml_file.name}: {case.get('name', '')}" + (f": {what}" if what else ""))
+                    line = f"failed: {xml_file.name}: {case.get('name', '')}"
+                    failure_lines.append(line + (f": {what}" if what else ""))
             elif case.find("skipped") is not None:
                 skipped += 1
                 if skip_lines is not None:
