@@ -5,10 +5,10 @@ that died before writing its results (e.g. shut down with its launch). rostest a
 catkin_test_results count such a test as passed.
 
 Skipped tests are listed first, one line each with the reason, then failed ones, each with the
-first line of what failed (the closing lines are what a CI log shows of a long run). A rostest writes two files: the
-test node's (rosunit-NAME.xml, its test cases) and rostest's own (one case, testNAME: the node ran
-and wrote results). When every case of the node's file is skipped, rostest's case counts as
-skipped too, not as passed.
+first line of what failed (the closing lines are what a CI log shows of a long run). A rostest
+writes two files: the test node's (rosunit-NAME.xml, its test cases) and rostest's own (one case,
+testNAME: the node ran and wrote results). When every case of the node's file is skipped,
+rostest's case counts as skipped too, not as passed.
 """
 import sys
 import xml.etree.ElementTree as ET
@@ -48,7 +48,7 @@ def count(results_dir: Path, skip_lines=None, failure_lines=None):
     for xml_file, root in documents:
         rostest_file = xml_file.name.startswith("rostest-")
         for case in _cases(root):
-            problem = case.find("failure") if case.find("failure") is not None else case.find("error")
+            problem = next((found for found in (case.find("failure"), case.find("error")) if found is not None), None)
             if problem is not None:
                 failed += 1
                 if failure_lines is not None:
