@@ -4,7 +4,8 @@
 Trains an actor on lab_2r with the tuned preset (embedded backend, seeded), starts
 launch/evaluate.launch method:=policy (which includes launch/execute.launch: one robot_actor per
 robot) against the running simulator, navigation and task manager, and checks:
-rl_manager ends cleanly, its episode is complete (every task finished), each robot was sent
+rl_manager ends cleanly, its episode is complete (every task finished) and written before the
+exact reference is planned (which then fills in the ratio), each robot was sent
 only its own observation row and answered every decision step on its own task_choice topic;
 and without actor nodes rl_manager ends with one line naming the robots. Waiting is bounded
 in wall time; nothing here asserts speed.
@@ -79,6 +80,14 @@ class ExecDecentralisedTest(unittest.TestCase):
         self.assertTrue(result["records"][0]["complete"])
         steps = result["records"][0]["decision_steps"]
         self.assertGreater(steps, 0)
+        # The episodes are written first; the exact reference is planned after them (the robots
+        # do not wait for its search) and then fills in the ratio.
+        wrote = launch.stdout.find("episode(s) in")
+        planning = launch.stdout.find("planning the exact reference")
+        self.assertTrue(0 <= wrote < planning, tail)
+        self.assertIn("(proven optimal); %s updated" % out, launch.stdout, tail)
+        self.assertGreater(result["exact_makespan"], 0.0)
+        self.assertAlmostEqual(summary["ratio_to_exact"], summary["makespan_mean"] / result["exact_makespan"], places=6)
 
         time.sleep(0.5)   # wall time: the simulator clock is paused between steps
         with lock:

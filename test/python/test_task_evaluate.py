@@ -97,6 +97,15 @@ def test_unwritable_out_is_one_line_before_any_episode(tmp_path, capsys):
     assert blocker.read_text() == "kept"
 
 
+def test_evaluate_says_it_plans_the_reference_before_its_search(tmp_path, capsys):
+    """The reference's search can take minutes before any robot moves: a line says so first."""
+    assert main(["--method", "exact", "--scenario", LAB_2R, "--episodes", "1", "--out", str(tmp_path / "r.json"),
+                 "--time-limit", "2", "--workers", "1"]) == 0
+    err = capsys.readouterr().err
+    planning = err.find("evaluate: planning the reference of lab_2r (2 robots, 8 tasks")
+    assert 0 <= planning < err.find("reference: best"), err
+
+
 def test_evaluate_reports_the_reference_with_its_bound_and_gap(tmp_path, capsys):
     out = tmp_path / "ref.json"
     assert main(["--method", "exact,auction", "--scenario", LAB_2R, "--episodes", "1", "--out", str(out), "--quiet",

@@ -223,6 +223,9 @@ def evaluate(args: argparse.Namespace) -> int:
 
     reference: Optional[Reference] = None
     if not args.no_exact or "exact" in args.methods:
+        if not args.quiet:   # its search can take minutes on a large team, before any robot moves
+            print(f"evaluate: planning the reference of {scenario.name} ({scenario.n_robots} robots, "
+                  f"{scenario.n_tasks} tasks; config/baselines.yaml's budget)", file=sys.stderr)
         reference = solve_reference(instance, settings, candidates=list(plans.values()))
         for line in reference.log:
             print(f"  {line}", file=sys.stderr)
