@@ -5,13 +5,14 @@ Trains an actor on lab_2r with the tuned preset (embedded backend, seeded), star
 launch/evaluate.launch method:=policy (which includes launch/execute.launch: one robot_actor per
 robot) against the running simulator, navigation and task manager, and checks:
 rl_manager ends cleanly, its episode is complete (every task finished) and written before the
-exact reference is planned (which then fills in the ratio), each robot was sent
-only its own observation row and answered every decision step on its own task_choice topic;
+exact reference is planned (which then fills in the ratio to the proven optimum), each robot was
+sent only its own observation row and answered every decision step on its own task_choice topic;
 and without actor nodes rl_manager ends with one line naming the robots. Waiting is bounded
 in wall time; nothing here asserts speed.
 """
 import json
 import os
+import re
 import subprocess
 import tempfile
 import threading
@@ -85,7 +86,10 @@ class ExecDecentralisedTest(unittest.TestCase):
         wrote = launch.stdout.find("episode(s) in")
         planning = launch.stdout.find("planning the exact reference")
         self.assertTrue(0 <= wrote < planning, tail)
-        self.assertIn("(proven optimal); %s updated" % out, launch.stdout, tail)
+        self.assertRegex(launch.stdout, r"rl_manager: reference: best [0-9.]+ s .*, proven optimal, .*; %s updated"
+                         % re.escape(out))
+        self.assertTrue(result["reference"]["proven_optimal"])
+        self.assertEqual(result["exact_makespan"], result["reference"]["best_makespan"])
         self.assertGreater(result["exact_makespan"], 0.0)
         self.assertAlmostEqual(summary["ratio_to_exact"], summary["makespan_mean"] / result["exact_makespan"], places=6)
 

@@ -8,6 +8,7 @@ run through the one episode loop (the same statistics and table as `evaluate`).
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import time
 from pathlib import Path
@@ -15,7 +16,7 @@ from typing import Callable, Dict, Optional, Sequence, Tuple
 
 import rospy
 
-from marl_mrta.baselines.reference import scenario_reference
+from marl_mrta.baselines.reference import Reference, scheduling_instance, solve_reference
 from marl_mrta.common.config import ConfigError
 from marl_mrta.common.paths import package_root
 from marl_mrta.evaluation.decentralised import ActorTimeout, ChoiceBoard, DecentralisedPolicy
@@ -77,14 +78,20 @@ def execute(args: argparse.Namespace, log: Callable[[str], None]) -> Dict:
 
     out = Path(args.out) if args.out else package_root() / "results" / f"execute_ros_{env.scenario.name}.json"
 
-    def report(exact_makespan: Optional[float]) -> Tuple[MethodSummary, Dict]:
+    def report(reference: Optional[Reference]) -> Tuple[MethodSummary, Dict]:
+        # As evaluate: the ratio to a proven optimum, else to the best known plan, named as such.
+        proven = reference is not None and reference.proven_optimal
+        best = reference.best_makespan if reference is not None and math.isfinite(reference.best_makespan) else None
         summary, part = method_report(policy.name, records, [t.category for t in env.scenario.tasks],
-                                      out.with_name(f"{out.stem}_gantt.png"),
-                                      f"decentralised · {env.scenario.name}", exact_makespan)
+                                      out.with_name(f"{out.stem}_gantt.png"), f"decentralised · {env.scenario.name}",
+                                      best, reference.lower_bound if reference is not None else None,
+                                      "exact" if proven or reference is None else "best known")
         document = {
             "scenario": str(env.scenario.source), "scenario_name": env.scenario.name, "executor": "ros",
             "execution": "decentralised", "mode": env.mode, "profile": env.noise_profile, "robots": namespaces,
-            "mask": env.settings.mask, "episodes": args.episodes, "seed": args.seed, "exact_makespan": exact_makespan,
+            "mask": env.settings.mask, "episodes": args.episodes, "seed": args.seed,
+            "exact_makespan": best if proven else None,
+            "reference": reference.as_dict() if reference is not None else None,
             "seconds": seconds, **part, "records": episode_rows(records),
         }
         write_document(out, document)
@@ -97,13 +104,11 @@ def execute(args: argparse.Namespace, log: Callable[[str], None]) -> Dict:
     if not args.no_exact:
         log("rl_manager: planning the exact reference for the ratio column (config/baselines.yaml's budget; "
             "--no-exact skips it)")
-        exact, _ = scenario_reference(env.scenario, env.settings.min_step, goal_timeout=env.settings.goal_timeout,
-                                      hold_successors=env.settings.hold_successors)
-        if exact.proven_optimal:
-            summary, document = report(exact.makespan)
-            log(f"rl_manager: exact reference {exact.makespan:.2f} s (proven optimal); {out} updated")
-        else:
-            log("rl_manager: exact reference not proven optimal within its budget: no ratio")
+        instance = scheduling_instance(env.scenario, env.settings.min_step, env.settings.goal_timeout,
+                                       hold_successors=env.settings.hold_successors)
+        reference = solve_reference(instance)
+        summary, document = report(reference)
+        log(f"rl_manager: {reference.describe()}; {out} updated")
     print(format_table([summary]))
     if env.stops_on_abort and records[-1].abort_reason:
         log(f"rl_manager: episode {len(records) - 1} aborted: {records[-1].abort_reason}; no further episode started")
