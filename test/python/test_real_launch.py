@@ -1,5 +1,6 @@
 """launch/real.launch, read without starting anything: which episodes node each method gets, and
-what it is handed (the rollout its actor file, which the planners do not take)."""
+what it is handed (the rollout its actor file, which the planners do not take); and `reference`
+of the launch files that run episodes."""
 import os
 
 import pytest
@@ -104,3 +105,20 @@ def test_move_base_drives_each_robot_through_its_gate_unless_told_not_to():
         assert params[f"/{robot}/cmd_vel_gate/permit_topic"].value == "/rl_task_allocation_manager/drive_permit"
     outputs, _ = navigation_outputs("cmd_vel_gate:=false")
     assert all(topic == "cmd_vel" and gate is None for topic, gate in outputs.values())
+
+
+@pytest.mark.parametrize("launch_file, args, runner_name", [
+    ("real.launch", ["nav:=builtin", "method:=policy", "policy:=generalist"], "/rl_manager"),
+    ("real.launch", ["nav:=builtin", "method:=ga"], "/evaluate"),
+    ("execute.launch", ["policy:=generalist"], "/rl_manager"),
+    ("evaluate.launch", ["method:=policy", "policy:=generalist"], "/rl_manager"),
+    ("evaluate.launch", ["method:=ga,auction"], "/evaluate")])
+def test_reference_false_leaves_the_exact_reference_out(launch_file, args, runner_name):
+    """The reference only gives the ratio column, and its search can take minutes on a large team."""
+    def runner_args(*extra):
+        config = roslaunch.config.load_config_default(
+            [(os.path.join(REPO, "launch", launch_file), ["roslaunch", *args, *extra])], None, verbose=False)
+        return {n.namespace + n.name: n for n in config.nodes}[runner_name].args.split()
+
+    assert "--no-exact" not in runner_args()
+    assert "--no-exact" in runner_args("reference:=false")
