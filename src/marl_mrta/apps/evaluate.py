@@ -233,7 +233,7 @@ def evaluate(args: argparse.Namespace) -> int:
         plans["exact"] = reference.plan
     best = reference.best_makespan if reference is not None else None
     lower = reference.lower_bound if reference is not None else None
-    basis = "exact" if reference is None or reference.proven_optimal else "best known"
+    basis = reference.ratio_basis if reference is not None else "exact"
 
     summaries, results = [], []
     stop_on_abort = getattr(env, "stops_on_abort", False)   # real robots: a safety stop ends the run

@@ -8,7 +8,6 @@ run through the one episode loop (the same statistics and table as `evaluate`).
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 import time
 from pathlib import Path
@@ -80,17 +79,16 @@ def execute(args: argparse.Namespace, log: Callable[[str], None]) -> Dict:
 
     def report(reference: Optional[Reference]) -> Tuple[MethodSummary, Dict]:
         # As evaluate: the ratio to a proven optimum, else to the best known plan, named as such.
-        proven = reference is not None and reference.proven_optimal
-        best = reference.best_makespan if reference is not None and math.isfinite(reference.best_makespan) else None
+        best, lower, basis = ((reference.best_makespan, reference.lower_bound, reference.ratio_basis)
+                              if reference is not None else (None, None, "exact"))
         summary, part = method_report(policy.name, records, [t.category for t in env.scenario.tasks],
                                       out.with_name(f"{out.stem}_gantt.png"), f"decentralised · {env.scenario.name}",
-                                      best, reference.lower_bound if reference is not None else None,
-                                      "exact" if proven or reference is None else "best known")
+                                      best, lower, basis)
         document = {
             "scenario": str(env.scenario.source), "scenario_name": env.scenario.name, "executor": "ros",
             "execution": "decentralised", "mode": env.mode, "profile": env.noise_profile, "robots": namespaces,
             "mask": env.settings.mask, "episodes": args.episodes, "seed": args.seed,
-            "exact_makespan": best if proven else None,
+            "exact_makespan": best if reference is not None and reference.proven_optimal else None,
             "reference": reference.as_dict() if reference is not None else None,
             "seconds": seconds, **part, "records": episode_rows(records),
         }

@@ -78,6 +78,11 @@ class Reference:
     def proven_optimal(self) -> bool:
         return self.gap == 0.0
 
+    @property
+    def ratio_basis(self) -> str:
+        """What a ratio to best_makespan is a ratio to: "exact" (a proven optimum) or "best known"."""
+        return "exact" if self.proven_optimal else "best known"
+
     def gap_text(self) -> str:
         """The gap in percent, and in seconds where the percentage rounds to 0.0 (a bound a few
         of the relaxations' 10 ms ticks under the plan)."""
