@@ -8,8 +8,10 @@ is, on a free cell, with a spread of 2 cm, as an operator's slip in rviz would, 
 and set down elsewhere. amcl stays confident there. Asserted:
 - before the fault, every scan of both robots fitted the map (`scan_fit` at least scan_fit_min);
 - after it, tb3_0's scan_fit falls below scan_fit_min;
-- every robot's cmd_vel is zero for good within the scans of scan_fit_lost_scans (5 a second) +
-  1.5 s of the wrong pose (amcl's first update, scans skipped while turning, the stop);
+- tb3_0's first unfit scan comes within AMCL_FIRST_UPDATE of the wrong pose, and it starts a run
+  of scan_fit_lost_scans judged scans in a row that are all unfit (scans taken while the robot
+  turns are not judged, so the run lasts 2 s of LDS-01 or longer);
+- every robot's cmd_vel is zero for good within TRIP of the last scan of that run;
 - the episode ends unfinished with a reason naming tb3_0 and its lost localisation, and no
   episode follows.
 """
@@ -35,7 +37,10 @@ from marl_mrta.model.occupancy_map import load_map  # noqa: E402
 from marl_mrta.ros.process_group import stop_process_group  # noqa: E402
 
 LIMITS = read_yaml(default_config_path("task_manager.yaml")).data
-STOP_AFTER = LIMITS["scan_fit_lost_scans"] / 5.0 + 1.5   # the LDS-01 turns at 5 Hz
+LOST_SCANS = LIMITS["scan_fit_lost_scans"]
+RUN_WAIT = 20.0   # s: the longest wait for the run of unfit scans (2 s of LDS-01 and the turns between)
+AMCL_FIRST_UPDATE = 1.5   # s: amcl takes the pose, its next scan (0.2 s) is placed there and judged
+TRIP = 0.5   # s: from the run's last scan to zero cmd_vel (the watch's 0.05 s period, cancel, publish)
 SHIFT = 1.0   # m
 
 
@@ -74,20 +79,31 @@ class RealLostTest(unittest.TestCase):
             lost = time.monotonic()
             rospy.loginfo("tb3_0 told it stands at (%.2f, %.2f), estimated at (%.2f, %.2f)",
                           wrong.pose.pose.position.x, wrong.pose.pose.position.y, p.x, p.y)
-            time.sleep(STOP_AFTER + 2.0)
+            deadline = time.monotonic() + RUN_WAIT
+            while (len([fit for _, fit in self.fits["tb3_0"].after(lost) if fit < LIMITS["scan_fit_min"]]) < LOST_SCANS
+                   and time.monotonic() < deadline):
+                time.sleep(0.1)
+            time.sleep(TRIP + 1.0)
             for ns in ROBOTS:
                 healthy = self.fits_of(ns, until=lost)
                 self.assertGreater(len(healthy), 10, "%s: no scan_fit before the fault" % ns)
                 rospy.loginfo("%s: scan_fit before the fault: %d scans, lowest %.3f", ns, len(healthy), min(healthy))
                 self.assertGreaterEqual(min(healthy), LIMITS["scan_fit_min"])
-            after = self.fits_of("tb3_0", since=lost)
-            self.assertTrue(after and min(after) < LIMITS["scan_fit_min"], "tb3_0's scan_fit after the wrong pose: %s"
-                            % after)
+            after = self.fits["tb3_0"].after(lost)
+            unfit = [i for i, (_, fit) in enumerate(after) if fit < LIMITS["scan_fit_min"]]
+            self.assertTrue(unfit, "tb3_0's scan_fit after the wrong pose: %s" % after)
+            run = after[unfit[0]:unfit[0] + LOST_SCANS]
+            self.assertEqual(len(run), LOST_SCANS, "tb3_0's scan_fit after the wrong pose: %s" % after)
+            self.assertTrue(all(fit < LIMITS["scan_fit_min"] for _, fit in run), run)
+            rospy.loginfo("tb3_0: first unfit scan %.3f s after the wrong pose, %d in a row by %.3f s",
+                          run[0][0] - lost, LOST_SCANS, run[-1][0] - lost)
+            self.assertLessEqual(run[0][0] - lost, AMCL_FIRST_UPDATE)
             for ns in ROBOTS:
                 stopped = stop_time(self.watch.of(ns), lost)
                 self.assertIsNotNone(stopped, "%s still commanded to move after tb3_0 was lost" % ns)
-                rospy.loginfo("%s: cmd_vel zero for good %.3f s after the wrong pose", ns, stopped - lost)
-                self.assertLessEqual(stopped - lost, STOP_AFTER)
+                rospy.loginfo("%s: cmd_vel zero for good %.3f s after the wrong pose, %.3f s after the run's last scan",
+                              ns, stopped - lost, stopped - run[-1][0])
+                self.assertLessEqual(stopped - run[-1][0], TRIP)
             self.assertIsNotNone(wait_exit(launch, 120.0), "real.launch did not end after the stop")
             document = json.loads(Path(out).read_text())
             episodes = document["results"][0]["episodes"]

@@ -12,6 +12,8 @@
 2. A policy trained in seconds (embedded, sequential preset) runs decentralised, one robot_actor
    per robot, and completes two episodes logic-consistently; between them the robots drive back
    to their start poses one at a time (reset_drive one_by_one): while tb3_0 drives, tb3_1 stands.
+   It runs on a short scenario of the lab's west half (two robots, four tasks, a crossed
+   precedence), so that its reset and two episodes take about two minutes of wall time.
 """
 import json
 import math
@@ -44,6 +46,7 @@ from marl_mrta.msg import TaskChoice
 from marl_mrta.ros.sim_link import quaternion_to_yaw
 
 SCENARIO = str(package_root() / "scenarios" / "lab_2r.xml")
+SHORT_SCENARIO = str(package_root() / "test" / "data" / "scenarios" / "lab_2r4t.xml")
 BRINGUP = package_root().parent / "shared" / "external" / "turtlebot3_noetic" / "turtlebot3_bringup" / "launch"
 #: turtlebot3_core (OpenCR firmware, ROS 1) and hls_lfcd_lds_driver: topic -> (type, rate Hz).
 EXPECTED = {"odom": (Odometry, 30.0), "joint_states": (JointState, 30.0), "imu": (Imu, 200.0),
@@ -207,14 +210,15 @@ class RealStandInTest(unittest.TestCase):
     def test_2_a_trained_policy_runs_decentralised(self):
         work = tempfile.mkdtemp(prefix="real_policy_")
         run = os.path.join(work, "train")
-        self.assertEqual(train_main(["--scenario", SCENARIO, "--preset", "sequential", "--seed", "0", "--out", run],
+        self.assertEqual(train_main(["--scenario", SHORT_SCENARIO, "--preset", "sequential", "--seed", "0", "--out", run],
                                     log=rospy.loginfo), 0)
         choices = {ns: [] for ns in ROBOTS}
         for ns in ROBOTS:
             rospy.Subscriber("/%s/task_choice" % ns, TaskChoice, lambda m, ns=ns: choices[ns].append(m.action),
                              queue_size=50)
         # The sequential preset trains with mask finished (real.launch assumes the tuned preset's logic).
-        launch, out = self.run_real(work, ["method:=policy", "mask:=finished", "policy:=" + os.path.join(run, "actor.pt")],
+        launch, out = self.run_real(work, ["scenario:=" + SHORT_SCENARIO, "method:=policy", "mask:=finished",
+                                           "policy:=" + os.path.join(run, "actor.pt")],
                                     episodes=2)
         document = self.read_result(launch, out, work, episodes=2)
         self.assertEqual(document["mode"], "real")
