@@ -3,11 +3,11 @@
 # directory so that `catkin_test_results` sees every failure.
 find_package(rostest REQUIRED)
 
-# Two pytest processes (pytest-xdist; an idle one takes tests queued for the other): the
-# differential navigation test drives for minutes in wall time with little CPU and runs beside
-# the rest (test/python/conftest.py queues it first).
+# Three pytest processes (pytest-xdist; an idle one takes tests queued for the others) on two
+# cores: the differential navigation test drives for minutes in wall time with little CPU
+# (test/python/conftest.py queues it first), while the other two keep both cores busy.
 catkin_run_tests_target("pytest" "python" "pytest-python.xml"
-  COMMAND "${PYTHON_EXECUTABLE} -m pytest -q -p no:cacheprovider -n 2 --dist worksteal ${PROJECT_SOURCE_DIR}/test/python --junitxml=${CATKIN_TEST_RESULTS_DIR}/${PROJECT_NAME}/pytest-python.xml"
+  COMMAND "${PYTHON_EXECUTABLE} -m pytest -q -p no:cacheprovider -n 3 --dist worksteal ${PROJECT_SOURCE_DIR}/test/python --junitxml=${CATKIN_TEST_RESULTS_DIR}/${PROJECT_NAME}/pytest-python.xml"
   WORKING_DIRECTORY ${PROJECT_SOURCE_DIR})
 
 file(GLOB MARL_MRTA_ROSTESTS RELATIVE ${PROJECT_SOURCE_DIR} test/rostest/*.test)

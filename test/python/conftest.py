@@ -1,5 +1,5 @@
-"""Order of the Python tests. They run in two processes (cmake/tests.cmake: pytest -n 2 --dist
-worksteal), each starting on its half of the queue. The files listed here drive robots in wall
+"""Order of the Python tests. They run in three processes (cmake/tests.cmake: pytest -n 3 --dist
+worksteal), each starting on its third of the queue. The files listed here drive robots in wall
 time for minutes with little CPU; queued first, they run beside the rest instead of after it."""
 import os
 
