@@ -67,6 +67,34 @@ def test_a_control_tick_waits_for_the_command_and_the_ticks_between_are_skipped(
     assert r.answer(0.41).cmd_vel_count == 2
 
 
+def test_a_command_that_comes_before_the_tick_between_answers_the_next_control_tick():
+    """The simulator runs through tick 3 without this answer (next_stamp) and publishes tick 4,
+    on which move_base commands at once; tick 3's message may reach the node after that command.
+    The command answers tick 4. Before, tick 3's answer took it, and tick 4 and tick 5 each
+    waited command_wait (0.5 s of wall time) for a command that had come already."""
+    r = commanded_on_tick_2()
+    r.on_command(is_zero=False, stamp=4 / RATE)   # tick 4's command, before tick 3's message
+    answer = tick(r, 3)
+    assert answer is not None and answer.next_stamp == pytest.approx(4 / RATE, abs=1e-5)
+    answer = tick(r, 4)
+    assert answer is not None and answer.tick == 4 and answer.cmd_vel_count == 2
+    assert answer.next_stamp == pytest.approx(6 / RATE, abs=1e-5) and r.timeouts == 0
+    r.on_tick(6, 6 / RATE, 1.0)
+    assert r.answer(1.0) is None                  # tick 6 waits for a command of its own
+
+
+def test_a_second_command_of_the_same_cycle_does_not_answer_the_next_control_tick():
+    """move_base stops the robot and commands again in one cycle (an oscillation's stop): the
+    second command was sent on tick 2, which the first answered; tick 4 waits for its own."""
+    r = commanded_on_tick_2()
+    r.on_command(is_zero=True, stamp=2 / RATE)
+    tick(r, 3)
+    r.on_tick(4, 4 / RATE, 0.0)
+    assert r.answer(0.0) is None
+    r.on_command(is_zero=False, stamp=4 / RATE)
+    assert r.answer(0.01).tick == 4
+
+
 def test_a_cycle_without_a_command_is_answered_after_the_wait_then_every_tick_is_watched():
     r = rule(command_wait=0.5)
     tick(r, 0)

@@ -63,7 +63,7 @@ class StockLockstepNode:
 
     def _on_command(self, msg: Twist) -> None:
         with self._changed:
-            self.rule.on_command(msg.linear.x == 0.0 and msg.angular.z == 0.0)
+            self.rule.on_command(msg.linear.x == 0.0 and msg.angular.z == 0.0, rospy.get_time())
             self._changed.notify_all()
 
     def _on_plan(self, msg: Path) -> None:

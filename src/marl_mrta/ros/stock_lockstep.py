@@ -24,6 +24,7 @@ the built-in move_base does. What this keeps deterministic, and what not: docs/n
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 from typing import Optional
 
@@ -71,7 +72,8 @@ class StockLockstepRule:
         self._last_stamp = 0.0            # stamp of the latest tick seen
         self._tick: Optional[int] = None  # the tick being answered
         self._answered: Optional[TickAnswer] = None
-        self._commands_before = 0         # commands seen when the previous tick was answered
+        self._due_answered = -math.inf    # stamp of the latest control tick answered (or phase set)
+        self._fresh = 0                   # commands sent after it: one answers the next control tick
         self._waiting = False
         self._deadline = 0.0
         self._idle_until = 0.0
@@ -85,6 +87,7 @@ class StockLockstepRule:
         it accepted it on (the first cycle plans)."""
         if not self.goal_active:   # a goal that replaces a running one keeps move_base's loop
             self.control_stamp = self._last_stamp + self.control_period
+            self._due_answered, self._fresh = self._last_stamp, 0
         self.goal_active = True
         self.silent = False
         self.plan_failed = False
@@ -116,11 +119,21 @@ class StockLockstepRule:
         """move_base pursues a goal it has no path to and has let a control tick pass without a command."""
         return self.goal_active and self.plan_failed and self.silent
 
-    def on_command(self, is_zero: bool) -> None:
-        if self.quiet:   # its control loop runs again: the next command one period after this one
-            self.control_stamp = self._last_stamp + self.control_period
+    def on_command(self, is_zero: bool, stamp: Optional[float] = None) -> None:
+        """move_base sent a command; `stamp`: the sim time it came at by the node's clock, which
+        may lag (the latest tick seen counts as well). The simulator runs through the ticks between
+        control ticks without their answers, so a control tick's command may come before the tick
+        before it does: a command answers the next control tick if it was sent after the last one
+        answered (a second command of that tick's cycle, e.g. a stop before a recovery, does not)."""
+        stamp = self._last_stamp if stamp is None else max(stamp, self._last_stamp)
+        quiet = self.quiet
         self.silent = False
         self.commands += 1
+        if quiet:   # its control loop runs again: the next command one period after this one
+            self.control_stamp = stamp + self.control_period
+            self._due_answered, self._fresh = stamp, 0
+        elif stamp > self._due_answered + STAMP_SLACK:
+            self._fresh += 1
         self._last_command_zero = is_zero
 
     # ------------------------------------------------------------------ ticks
@@ -155,10 +168,9 @@ class StockLockstepRule:
             return None
         if self._answered is not None:   # a re-sent tick: what came since counts too
             self._answered = replace(self._answered, cmd_vel_count=self.commands, goal_end_tick=self.goal_end_tick)
-            self._commands_before = self.commands
             return self._answered
         if self._waiting:
-            commanded = self.commands > self._commands_before
+            commanded = self._fresh > 0
             if not commanded:
                 if wall_now < self._deadline:
                     return None
@@ -174,12 +186,12 @@ class StockLockstepRule:
                     if wall_now < self._result_deadline:
                         return None
                 self.control_stamp = self._last_stamp + self.control_period if self.goal_active else None
+            self._due_answered, self._fresh = self._last_stamp, 0
         elif not self.goal_active and wall_now < self._idle_until:
             return None
         next_stamp = self.control_stamp if (self.goal_active and self.control_stamp is not None) else 0.0
         if next_stamp and next_stamp <= self._last_stamp + STAMP_SLACK:
             next_stamp = 0.0
-        self._commands_before = self.commands
         self._answered = TickAnswer(self._tick, self.commands, next_stamp - STAMP_SLACK if next_stamp else 0.0,
                                     self.goal_end_tick)
         return self._answered
