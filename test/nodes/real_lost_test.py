@@ -80,7 +80,7 @@ class RealLostTest(unittest.TestCase):
             rospy.loginfo("tb3_0 told it stands at (%.2f, %.2f), estimated at (%.2f, %.2f)",
                           wrong.pose.pose.position.x, wrong.pose.pose.position.y, p.x, p.y)
             deadline = time.monotonic() + RUN_WAIT
-            while (len([fit for _, fit in self.fits["tb3_0"].after(lost) if fit < LIMITS["scan_fit_min"]]) < LOST_SCANS
+            while (len([fit for fit in self.fits_of("tb3_0", since=lost) if fit < LIMITS["scan_fit_min"]]) < LOST_SCANS
                    and time.monotonic() < deadline):
                 time.sleep(0.1)
             time.sleep(TRIP + 1.0)

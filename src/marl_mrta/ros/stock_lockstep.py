@@ -73,7 +73,7 @@ class StockLockstepRule:
         self._tick: Optional[int] = None  # the tick being answered
         self._answered: Optional[TickAnswer] = None
         self._due_answered = -math.inf    # stamp of the latest control tick answered (or phase set)
-        self._fresh = 0                   # commands sent after it: one answers the next control tick
+        self._commanded = False           # a command was sent after it: it answers the next control tick
         self._waiting = False
         self._deadline = 0.0
         self._idle_until = 0.0
@@ -87,7 +87,7 @@ class StockLockstepRule:
         it accepted it on (the first cycle plans)."""
         if not self.goal_active:   # a goal that replaces a running one keeps move_base's loop
             self.control_stamp = self._last_stamp + self.control_period
-            self._due_answered, self._fresh = self._last_stamp, 0
+            self._due_answered, self._commanded = self._last_stamp, False
         self.goal_active = True
         self.silent = False
         self.plan_failed = False
@@ -131,9 +131,9 @@ class StockLockstepRule:
         self.commands += 1
         if quiet:   # its control loop runs again: the next command one period after this one
             self.control_stamp = stamp + self.control_period
-            self._due_answered, self._fresh = stamp, 0
+            self._due_answered, self._commanded = stamp, False
         elif stamp > self._due_answered + STAMP_SLACK:
-            self._fresh += 1
+            self._commanded = True
         self._last_command_zero = is_zero
 
     # ------------------------------------------------------------------ ticks
@@ -170,7 +170,7 @@ class StockLockstepRule:
             self._answered = replace(self._answered, cmd_vel_count=self.commands, goal_end_tick=self.goal_end_tick)
             return self._answered
         if self._waiting:
-            commanded = self._fresh > 0
+            commanded = self._commanded
             if not commanded:
                 if wall_now < self._deadline:
                     return None
@@ -186,7 +186,7 @@ class StockLockstepRule:
                     if wall_now < self._result_deadline:
                         return None
                 self.control_stamp = self._last_stamp + self.control_period if self.goal_active else None
-            self._due_answered, self._fresh = self._last_stamp, 0
+            self._due_answered, self._commanded = self._last_stamp, False
         elif not self.goal_active and wall_now < self._idle_until:
             return None
         next_stamp = self.control_stamp if (self.goal_active and self.control_stamp is not None) else 0.0
