@@ -11,7 +11,7 @@ import torch
 from marl_mrta.baselines.reference import scenario_reference
 from marl_mrta.common.paths import package_root
 from marl_mrta.env.factory import make_env
-from marl_mrta.env.observation import TASK_FEATURES, SetLayout, feature, turn_ranks
+from marl_mrta.env.observation import ORIENTATIONS, ROBOT_FEATURES, TASK_FEATURES, SetLayout, feature, turn_ranks
 from marl_mrta.env.settings import load_embedded_settings, load_task_settings
 from marl_mrta.evaluation.training import greedy_episodes
 from marl_mrta.mappo.claims import with_set_claims
@@ -205,6 +205,38 @@ def test_set_rows_claims_and_padding():
     own, robots, tasks, _ = bigger.split(padded)
     assert robots[:, 4:].sum() == 0 and tasks[:, 8:].sum() == 0
     np.testing.assert_array_equal(bigger.split(padded)[3][:, :4, :8], layout.split(rows.numpy())[3])
+
+
+def test_a_turned_floor_turns_the_offsets_alone():
+    """The rows of the floor turned by 90 degrees (ORIENTATIONS[1]) and mirrored on x (4): every
+    feature as on the floor as it is but the offsets dx, dy, which are turned; the turn order too."""
+    env = make_env(LAB_4R, mask="finished")
+    policy = fresh_policy(IN_TURN).for_scenario(env.scenario)
+    out = env.reset(seed=0)
+    out = env.step([0, 2, 4, 6])
+    as_it_is = policy.view.rows(out.obs, range(4), sequential=True)
+    layout = policy.view.layout
+    offsets = [(SetLayout.n_self, ROBOT_FEATURES, layout.robot_slots), (layout.at_tasks, TASK_FEATURES, layout.task_slots)]
+    for orientation, expected in ((1, lambda dx, dy: (-dy, dx)), (4, lambda dx, dy: (dx, -dy))):
+        turned = policy.turned(orientation)
+        rows = turned.view.rows(out.obs, range(4), sequential=True)
+        changed = np.flatnonzero((rows != as_it_is).any(axis=0))
+        columns = set()
+        for start, names, slots in offsets:
+            for slot in range(slots):
+                at = start + slot * len(names)
+                dx, dy = as_it_is[:, at + feature(names, "dx")], as_it_is[:, at + feature(names, "dy")]
+                want_x, want_y = expected(dx, dy)
+                np.testing.assert_allclose(rows[:, at + feature(names, "dx")], want_x, atol=1e-6)
+                np.testing.assert_allclose(rows[:, at + feature(names, "dy")], want_y, atol=1e-6)
+                columns |= {at + feature(names, "dx"), at + feature(names, "dy")}
+        assert len(changed) > 0 and set(changed) <= columns
+        torch.testing.assert_close(turned.turns(out.obs), policy.turns(out.obs))
+    assert len(ORIENTATIONS) == 8 and len({tuple(m.ravel()) for m in ORIENTATIONS}) == 8
+    assert all(np.allclose(m @ m.T, np.eye(2)) for m in ORIENTATIONS)
+    np.testing.assert_array_equal(policy.turned(0).view.rows(out.obs, range(4), True), as_it_is)
+    with pytest.raises(ValueError):
+        policy.turned(8)
 
 
 def test_training_across_scenarios_of_different_sizes_pads_and_keeps_the_rules(tmp_path):

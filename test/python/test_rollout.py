@@ -18,6 +18,7 @@ from marl_mrta.mappo.policy import load_policy
 from marl_mrta.model.scenario import load_scenario
 
 JOIN = package_root() / "test" / "data" / "scenarios" / "join_2r4t.xml"
+TURNED = package_root() / "test" / "data" / "scenarios" / "turned_3r5t.xml"
 
 
 def planned(path, budget, precedence_margin=0.0):
@@ -45,9 +46,27 @@ def test_rollout_is_never_longer_than_the_actor_alone(name):
 
 
 def test_a_budget_of_one_play_out_is_the_actor_alone():
-    plan, _ = planned(JOIN, RolloutBudget(alternatives=3, max_rollouts=1))
+    """The orientations share the budget: the one play-out is the floor as it is."""
+    plan, _ = planned(JOIN, RolloutBudget(alternatives=3, max_rollouts=1, orientations=8))
     assert plan.details["play_outs"] == 1 and plan.details["budget_reached"]
+    assert len(plan.details["orientation_makespans"]) == 1 and plan.details["orientation"] == 0
     assert plan.makespan == pytest.approx(plan.details["greedy_makespan"], abs=1e-9)
+
+
+def test_the_turned_floor_finds_the_optimum_the_floor_as_it_is_misses():
+    """The generalist reads the floor through offsets in the map's axes alone; on the floor turned
+    by 180 degrees its rollout takes the optimum that its rollout on the floor as it is misses."""
+    as_it_is, instance = planned(TURNED, RolloutBudget(orientations=1))
+    exact = solve_exact(instance)
+    assert exact.proven_optimal
+    assert as_it_is.makespan > 1.1 * exact.makespan                     # 1.118 x
+    plan, _ = planned(TURNED, load_baseline_settings().rollout)
+    assert plan.complete and plan.logic_violations == 0
+    assert plan.makespan == pytest.approx(exact.makespan, abs=1e-6)
+    tried = plan.details["orientation_makespans"]
+    assert len(tried) == 8 and tried[0] == pytest.approx(as_it_is.makespan, abs=1e-9)
+    assert plan.details["orientation"] != 0 and tried[plan.details["orientation"]] == pytest.approx(plan.makespan)
+    assert plan.details["greedy_makespan"] == as_it_is.details["greedy_makespan"]   # the actor alone, as it is
 
 
 def test_evaluate_runs_the_rollout_plan_beside_the_actor(tmp_path, capsys):
@@ -71,7 +90,7 @@ def test_rollout_without_an_actor_is_one_line(tmp_path, capsys):
     assert not (tmp_path / "e.json").exists()
 
 
-@pytest.mark.parametrize("key, value", [("alternatives", 0), ("max_rollouts", "many")])
+@pytest.mark.parametrize("key, value", [("alternatives", 0), ("max_rollouts", "many"), ("orientations", 9)])
 def test_a_bad_rollout_budget_names_the_file_and_key(tmp_path, key, value):
     data = yaml.safe_load(default_config_path("task_baselines.yaml").read_text())
     data["rollout"][key] = value

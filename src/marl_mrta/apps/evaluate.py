@@ -150,7 +150,11 @@ def rollout_for(args: argparse.Namespace, scenario: Scenario, instance: Scheduli
     alone = details["greedy_makespan"]
     alone_note = f"{alone:.2f} s" if alone is not None else "not complete in order" + (
         f" with the margin of {instance.precedence_margin:g} s" if instance.precedence_margin else "")
-    print(f"  rollout: {details['play_outs']} episodes played out, {plan.makespan:.2f} s (the actor alone "
+    tried = details["orientation_makespans"]
+    turned = "" if len(tried) == 1 else (
+        f", the floor's orientation {details['orientation']} of {len(tried)} (as it is: "
+        + (f"{tried[0]:.2f} s" if tried[0] is not None else "no plan") + ")")
+    print(f"  rollout: {details['play_outs']} episodes played out, {plan.makespan:.2f} s{turned} (the actor alone "
           f"{alone_note})" + ("; budget reached, the actor decided the rest" if details["budget_reached"] else ""),
           file=sys.stderr)
     return plan

@@ -29,7 +29,8 @@ class RolloutBudget:
     """The rollout planner's search (evaluation/rollout.py)."""
     alternatives: int = 3          # tried at each robot's turn: the actor's most likely other actions, and
                                    # as many of the nearest open tasks its precedence mask holds back
-    max_rollouts: int = 1000       # episodes played out at the most; then the rest follows the actor
+    max_rollouts: int = 1000       # episodes played out at the most, over all orientations; then the actor decides
+    orientations: int = 8          # the floor as it is, then turned and mirrored (a set actor's): one rollout each
 
 
 @dataclass(frozen=True)
@@ -95,7 +96,8 @@ def load_baseline_settings(path: Optional[Union[str, Path]] = None) -> BaselineS
         cpsat=budget,
         precedence_margin=root.number("precedence_margin", minimum=0.0),
         rollout=RolloutBudget(alternatives=rollout.integer("alternatives", minimum=1),
-                              max_rollouts=rollout.integer("max_rollouts", minimum=1)),
+                              max_rollouts=rollout.integer("max_rollouts", minimum=1),
+                              orientations=rollout.integer("orientations", minimum=1, maximum=8)),
     )
     root.check_all_used()
     return settings

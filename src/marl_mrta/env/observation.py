@@ -16,6 +16,7 @@ task its finish time / timeout (0 while open) and its logic-correct flag.
 """
 from __future__ import annotations
 
+import copy
 import math
 import struct
 from typing import Dict, List, Optional, Sequence, Tuple
@@ -145,6 +146,15 @@ TIME_CAP = 8.0        # mean legs: travel-time features saturate here
 DEPTH_CAP = 8.0       # tasks: chains of open tasks longer than this look alike
 
 
+#: The floor turned by quarter turns and mirrored (the eight symmetries of a square), as the
+#: matrices that map the map's axes to the turned floor's: a set row's dx, dy are its only
+#: features in the map's axes, so rows encoded under another orientation show a set actor the same
+#: scenario on a turned floor, on which it may decide otherwise (evaluation/rollout.py tries each).
+ORIENTATIONS = tuple(np.array(axes, dtype=np.float64).reshape(2, 2) for axes in (
+    (1, 0, 0, 1), (0, -1, 1, 0), (-1, 0, 0, -1), (0, 1, -1, 0),     # turned by 0, 90, 180, 270 degrees
+    (1, 0, 0, -1), (-1, 0, 0, 1), (0, 1, 1, 0), (0, -1, -1, 0)))    # mirrored on x, y and the diagonals
+
+
 #: How robots take turns in a sequential decision (mappo/claims.py): index: robot 0 first;
 #: nearest_ready: the robot with the shortest nominal leg to a ready task first.
 TURN_ORDERS = ("index", "nearest_ready")
@@ -257,6 +267,19 @@ class SetObservationEncoder:
         categories = scenario.categories
         self.category = np.array([categories.index(t.category) / max(1, len(categories) - 1) for t in scenario.tasks])
         self.t_max = scenario.nav_thresholds.t_max
+        self.orientation = 0
+
+    def turned(self, orientation: int) -> "SetObservationEncoder":
+        """This encoder with dx, dy on the floor turned by ORIENTATIONS[orientation] (0: as it is)."""
+        if not 0 <= orientation < len(ORIENTATIONS):
+            raise ValueError(f"orientation {orientation}: one of 0..{len(ORIENTATIONS) - 1}")
+        encoder = copy.copy(self)
+        encoder.orientation = orientation
+        return encoder
+
+    def _oriented(self, offsets: np.ndarray) -> np.ndarray:
+        """Offsets (..., 2) in the map's axes -> the same on the encoder's floor."""
+        return offsets if self.orientation == 0 else offsets @ ORIENTATIONS[self.orientation].T
 
     def robot_positions(self, rows: np.ndarray, robots: Sequence[int]) -> np.ndarray:
         """(k, n_robots, 2) metres: every robot's position as row r (robot robots[r]) sees it."""
@@ -312,7 +335,7 @@ class SetObservationEncoder:
         robot_tokens[:, :n, feature(r, "is_self")] = np.arange(n)[None, :] == robots[:, None]
         if sequential:
             robot_tokens[:, :n, feature(r, "decided")] = turn < my_turn
-        relative = (xy - me[:, None, :]) / LENGTH_SCALE
+        relative = self._oriented((xy - me[:, None, :]) / LENGTH_SCALE)
         robot_tokens[:, :n, feature(r, "dx")] = relative[..., 0]
         robot_tokens[:, :n, feature(r, "dy")] = relative[..., 1]
         nearest = np.where(open_[:, None, :], travel, np.inf).min(axis=2)
@@ -333,7 +356,7 @@ class SetObservationEncoder:
         tasks[..., feature(t, "lead")] = others - own
         tasks[..., feature(t, "closer_others")] = closer
         tasks[..., feature(t, "margin")] = TIME_CAP
-        task_relative = (self.task_xy[None] - me[:, None, :]) / LENGTH_SCALE
+        task_relative = self._oriented((self.task_xy[None] - me[:, None, :]) / LENGTH_SCALE)
         tasks[..., feature(t, "dx")] = task_relative[..., 0]
         tasks[..., feature(t, "dy")] = task_relative[..., 1]
         tasks[..., feature(t, "category")] = self.category

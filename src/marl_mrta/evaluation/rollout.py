@@ -16,6 +16,12 @@ scored as the plans they become in the instance's nominal run: an episode with a
 within the margin of its predecessor's finish is no plan, and among such episodes the one with
 fewer of them leads, so that an actor whose own episode breaks the margin is led to one that keeps it.
 
+A set actor (the generalist) reads the floor only through offsets in the map's axes, and decides
+otherwise on the same floor turned or mirrored (env/observation.py, ORIENTATIONS), so its rollout
+is run once per orientation (`orientations`, as test-time augmentation in POMO, Kwon et al.
+2020), and the shortest plan is kept (the first on a tie: the floor as it is comes first). The
+orientations share `max_rollouts`: those it leaves no play-out are not tried. An MLP actor has one.
+
 The result is a plan (joint actions), executed as the planners' are: on any executor and in ROS
 (evaluate --method rollout --policy P). The robots' own actor nodes (execute.launch) keep deciding
 from the actor alone.
@@ -23,7 +29,7 @@ from the actor alone.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
@@ -179,13 +185,28 @@ def rollout_plan(actor: ActorPolicy, scenario: Scenario, instance: SchedulingIns
     `mask`, as a plan of `instance` (the scenario's nominal numbers)."""
     # The play-outs run under the instance's rules, so that the environment and the nominal run agree.
     env = make_env(scenario, "embedded", profile="ideal", mask=mask, seed=seed, hold_successors=instance.hold_successors)
-    planner = RolloutPlanner(actor.for_scenario(scenario), env, instance, budget, seed)
-    final, greedy = planner.plan()
-    if not math.isfinite(final.plan_makespan):
+    bound = actor.for_scenario(scenario)
+    best: Optional[_PlayOut] = None
+    chosen, greedy, play_outs, budget_reached = 0, math.inf, 0, False
+    makespans: List[Optional[float]] = []
+    for orientation in range(min(budget.orientations, bound.orientations)):
+        left = budget.max_rollouts - play_outs    # one budget for all orientations: the time stays bounded
+        if left <= 0:
+            break
+        planner = RolloutPlanner(bound.turned(orientation), env, instance, replace(budget, max_rollouts=left), seed)
+        final, own = planner.plan()
+        play_outs += planner.play_outs
+        budget_reached |= planner.play_outs >= left
+        makespans.append(final.plan_makespan if math.isfinite(final.plan_makespan) else None)
+        if orientation == 0:
+            greedy = own
+        if best is None or _better(final, best):
+            best, chosen = final, orientation
+    if best is None or not math.isfinite(best.plan_makespan):
         margin = f" with a precedence margin of {instance.precedence_margin:g} s" if instance.precedence_margin else ""
-        raise RolloutError(f"{scenario.source}: no complete plan in precedence order{margin} in {planner.play_outs} "
+        raise RolloutError(f"{scenario.source}: no complete plan in precedence order{margin} in {play_outs} "
                            f"play-outs (the actor's own episode is not one); a larger max_rollouts"
                            f"{' or a smaller --precedence-margin' if margin else ''} may find one")
-    return plan_from_run("rollout", final.run, play_outs=planner.play_outs,
+    return plan_from_run("rollout", best.run, play_outs=play_outs,
                          greedy_makespan=greedy if math.isfinite(greedy) else None,
-                         budget_reached=planner.play_outs >= budget.max_rollouts)
+                         budget_reached=budget_reached, orientation=chosen, orientation_makespans=makespans)

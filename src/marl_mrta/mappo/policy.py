@@ -14,6 +14,7 @@ import numpy as np
 import torch
 
 from marl_mrta.common.paths import package_root
+from marl_mrta.env.observation import ORIENTATIONS
 from marl_mrta.mappo.claims import (ClaimRules, actor_input_size, is_sequential, turns_from_rows, with_claims,
                                     with_set_claims)
 from marl_mrta.mappo.networks import Actor, masked_logits, sample_actions
@@ -123,6 +124,16 @@ class ActorPolicy:
 
     def for_scenario(self, scenario: Scenario) -> "ActorPolicy":
         """This policy acting on `scenario` (an MLP actor knows only the scenario it was trained on)."""
+        return self
+
+    #: How many orientations of the floor the actor can be shown (turned()): an MLP actor's
+    #: inputs are positions on its own scenario's map, so one.
+    orientations = 1
+
+    def turned(self, orientation: int) -> "ActorPolicy":
+        """This policy shown the floor turned (env/observation.py, ORIENTATIONS; 0: as it is)."""
+        if orientation != 0:
+            raise ValueError(f"{self.source}: an MLP actor sees its scenario's floor as it is (orientation 0 only)")
         return self
 
     @torch.no_grad()
@@ -248,9 +259,17 @@ class SetActorPolicy(ActorPolicy):
                          n_agents=scenario.n_robots if scenario is not None else 0, append_agent_id=False,
                          settings=settings, seed=seed, source=source, predecessors=predecessors)
 
+    orientations = len(ORIENTATIONS)
+
     def for_scenario(self, scenario: Scenario) -> "SetActorPolicy":
         return SetActorPolicy(self.actor, settings=self.settings, seed=self.seed, source=self.source,
                               view=SetView(scenario, self.turn_order))
+
+    def turned(self, orientation: int) -> "SetActorPolicy":
+        if self.view is None:
+            raise ValueError(f"{self.source}: a set actor acts on a scenario: bind it first (for_scenario)")
+        return SetActorPolicy(self.actor, settings=self.settings, seed=self.seed, source=self.source,
+                              view=self.view.turned(orientation))
 
     def turns_of_rows(self, rows: torch.Tensor) -> Optional[torch.Tensor]:
         # The rows say who chose before only in a sequential decision (SetObservationEncoder).

@@ -15,6 +15,7 @@ so a run stays a function of its seeds (replay on resume rebuilds the same episo
 """
 from __future__ import annotations
 
+import copy
 import dataclasses
 from typing import Callable, Dict, Optional, Sequence, Tuple
 
@@ -38,6 +39,12 @@ class SetView:
         self.flat = ObservationEncoder(scenario)
         self.encoder = SetObservationEncoder(self.flat, scenario, table.nominal_time, table.node_poses, turn_order)
         self.layout = SetLayout(scenario.n_robots, scenario.n_tasks)
+
+    def turned(self, orientation: int) -> "SetView":
+        """This view with the floor turned (env/observation.py, ORIENTATIONS; 0: as it is)."""
+        view = copy.copy(self)
+        view.encoder = self.encoder.turned(orientation)
+        return view
 
     def rows(self, obs: np.ndarray, robots: Sequence[int], sequential: bool,
              layout: Optional[SetLayout] = None) -> np.ndarray:
