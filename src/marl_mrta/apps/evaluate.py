@@ -152,8 +152,8 @@ def rollout_for(args: argparse.Namespace, scenario: Scenario, instance: Scheduli
         f" with the margin of {instance.precedence_margin:g} s" if instance.precedence_margin else "")
     tried = details["orientation_makespans"]
     turned = "" if len(tried) == 1 else (
-        f", the floor's orientation {details['orientation']} of {len(tried)} (as it is: "
-        + (f"{tried[0]:.2f} s" if tried[0] is not None else "no plan") + ")")
+        f", the floor's orientation {details['orientation']} ({len(tried)} of {settings.rollout.orientations} tried "
+        f"within the budget; as it is: " + (f"{tried[0]:.2f} s" if tried[0] is not None else "no plan") + ")")
     print(f"  rollout: {details['play_outs']} episodes played out, {plan.makespan:.2f} s{turned} (the actor alone "
           f"{alone_note})" + ("; budget reached, the actor decided the rest" if details["budget_reached"] else ""),
           file=sys.stderr)

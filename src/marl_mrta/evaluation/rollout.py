@@ -185,15 +185,15 @@ def rollout_plan(actor: ActorPolicy, scenario: Scenario, instance: SchedulingIns
     `mask`, as a plan of `instance` (the scenario's nominal numbers)."""
     # The play-outs run under the instance's rules, so that the environment and the nominal run agree.
     env = make_env(scenario, "embedded", profile="ideal", mask=mask, seed=seed, hold_successors=instance.hold_successors)
-    bound = actor.for_scenario(scenario)
+    on_scenario = actor.for_scenario(scenario)
     best: Optional[_PlayOut] = None
     chosen, greedy, play_outs, budget_reached = 0, math.inf, 0, False
     makespans: List[Optional[float]] = []
-    for orientation in range(min(budget.orientations, bound.orientations)):
+    for orientation in range(min(budget.orientations, on_scenario.orientations)):
         left = budget.max_rollouts - play_outs    # one budget for all orientations: the time stays bounded
         if left <= 0:
             break
-        planner = RolloutPlanner(bound.turned(orientation), env, instance, replace(budget, max_rollouts=left), seed)
+        planner = RolloutPlanner(on_scenario.turned(orientation), env, instance, replace(budget, max_rollouts=left), seed)
         final, own = planner.plan()
         play_outs += planner.play_outs
         budget_reached |= planner.play_outs >= left
