@@ -1,6 +1,7 @@
 """The rollout planner (evaluation/rollout.py): a learned actor's episode improved by playing out
 its most likely other actions, without training on the scenario; never longer than the actor
 alone, within its budget, and run by `evaluate --method rollout` as the planners' plans are."""
+import dataclasses
 import json
 
 import pytest
@@ -21,6 +22,12 @@ JOIN = package_root() / "test" / "data" / "scenarios" / "join_2r4t.xml"
 TURNED = package_root() / "test" / "data" / "scenarios" / "turned_3r5t.xml"
 
 
+def as_it_is():
+    """The configured budget on the floor as it is alone: what a test of the rollout's own search
+    checks must not be found by another orientation instead."""
+    return dataclasses.replace(load_baseline_settings().rollout, orientations=1)
+
+
 def planned(path, budget, precedence_margin=0.0):
     scenario = load_scenario(path)
     task = load_task_settings()
@@ -29,7 +36,7 @@ def planned(path, budget, precedence_margin=0.0):
 
 
 def test_rollout_takes_the_optimum_the_actor_alone_misses():
-    plan, instance = planned(JOIN, load_baseline_settings().rollout)
+    plan, instance = planned(JOIN, as_it_is())
     exact = solve_exact(instance)
     assert exact.proven_optimal
     assert plan.details["greedy_makespan"] > 1.25 * exact.makespan     # the actor alone: 50.20 s against 39.44 s
@@ -56,17 +63,17 @@ def test_a_budget_of_one_play_out_is_the_actor_alone():
 def test_the_turned_floor_finds_the_optimum_the_floor_as_it_is_misses():
     """The generalist reads the floor through offsets in the map's axes alone; on the floor turned
     by 180 degrees its rollout takes the optimum that its rollout on the floor as it is misses."""
-    as_it_is, instance = planned(TURNED, RolloutBudget(orientations=1))
+    alone, instance = planned(TURNED, as_it_is())
     exact = solve_exact(instance)
     assert exact.proven_optimal
-    assert as_it_is.makespan > 1.1 * exact.makespan                     # 1.118 x
+    assert alone.makespan > 1.1 * exact.makespan                        # 1.118 x
     plan, _ = planned(TURNED, load_baseline_settings().rollout)
     assert plan.complete and plan.logic_violations == 0
     assert plan.makespan == pytest.approx(exact.makespan, abs=1e-6)
     tried = plan.details["orientation_makespans"]
-    assert len(tried) == 8 and tried[0] == pytest.approx(as_it_is.makespan, abs=1e-9)
+    assert len(tried) == 8 and tried[0] == pytest.approx(alone.makespan, abs=1e-9)
     assert plan.details["orientation"] != 0 and tried[plan.details["orientation"]] == pytest.approx(plan.makespan)
-    assert plan.details["greedy_makespan"] == as_it_is.details["greedy_makespan"]   # the actor alone, as it is
+    assert plan.details["greedy_makespan"] == alone.details["greedy_makespan"]   # the actor alone, as it is
 
 
 def test_evaluate_runs_the_rollout_plan_beside_the_actor(tmp_path, capsys):
@@ -106,7 +113,7 @@ def test_tasks_the_precedence_mask_holds_back_reach_lab_3r_optimum():
     """lab_3r's optimum sends a robot towards a successor whose predecessor a robot after it
     takes, which the actor's in-turn decision cannot choose (1.042 × alone): the rollout tries
     such tasks too."""
-    plan, instance = planned(package_root() / "scenarios" / "lab_3r.xml", load_baseline_settings().rollout)
+    plan, instance = planned(package_root() / "scenarios" / "lab_3r.xml", as_it_is())
     exact = solve_exact(instance)
     assert exact.proven_optimal and plan.details["greedy_makespan"] > 1.04 * exact.makespan
     assert plan.makespan == pytest.approx(exact.makespan, abs=1e-6)
@@ -117,7 +124,7 @@ def test_the_rollout_keeps_a_precedence_margin_the_actor_alone_breaks():
     1 s after their predecessors' finish; with evaluate's --precedence-margin 1.0 (real.launch's
     precedence_margin:=1.0) that episode is no plan, and the rollout finds the margin's proven optimum."""
     lab_4r = package_root() / "scenarios" / "lab_4r.xml"
-    plan, instance = planned(lab_4r, load_baseline_settings().rollout, precedence_margin=1.0)
+    plan, instance = planned(lab_4r, as_it_is(), precedence_margin=1.0)
     exact = solve_exact(instance)
     assert exact.proven_optimal
     assert plan.details["greedy_makespan"] is None       # the actor alone: 25.99 s, 0.23 s of margin
