@@ -262,25 +262,29 @@ class SetActorPolicy(ActorPolicy):
     orientations = len(ORIENTATIONS)
 
     def for_scenario(self, scenario: Scenario) -> "SetActorPolicy":
-        return SetActorPolicy(self.actor, settings=self.settings, seed=self.seed, source=self.source,
-                              view=SetView(scenario, self.turn_order))
+        return self._seeing(SetView(scenario, self.turn_order))
 
     def turned(self, orientation: int) -> "SetActorPolicy":
+        return self._seeing(self._bound_view().turned(orientation))
+
+    def _seeing(self, view: SetView) -> "SetActorPolicy":
+        """The same actor and settings acting through `view`."""
+        return SetActorPolicy(self.actor, settings=self.settings, seed=self.seed, source=self.source, view=view)
+
+    def _bound_view(self) -> SetView:
         if self.view is None:
             raise ValueError(f"{self.source}: a set actor acts on a scenario: bind it first (for_scenario)")
-        return SetActorPolicy(self.actor, settings=self.settings, seed=self.seed, source=self.source,
-                              view=self.view.turned(orientation))
+        return self.view
 
     def turns_of_rows(self, rows: torch.Tensor) -> Optional[torch.Tensor]:
         # The rows say who chose before only in a sequential decision (SetObservationEncoder).
         return turns_from_rows(rows, self.n_actions - 1) if self.sequential else None
 
     def encode(self, obs: np.ndarray, ids: Sequence[int]) -> torch.Tensor:
-        if self.view is None:
-            raise ValueError(f"{self.source}: a set actor acts on a scenario: bind it first (for_scenario)")
+        view = self._bound_view()
         if any(i < 0 or i >= self.n_agents for i in ids):
             raise ValueError(f"{self.source}: robot index out of range 0..{self.n_agents - 1}: {list(ids)}")
-        return torch.as_tensor(self.view.rows(obs, ids, self.sequential))
+        return torch.as_tensor(view.rows(obs, ids, self.sequential))
 
     def _inputs(self, rows: torch.Tensor, mask_t: Optional[torch.Tensor], ids: Sequence[int],
                 claimed: Optional[np.ndarray]) -> Tuple[torch.Tensor, Optional[torch.Tensor]]:

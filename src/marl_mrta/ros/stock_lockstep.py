@@ -170,8 +170,7 @@ class StockLockstepRule:
             self._answered = replace(self._answered, cmd_vel_count=self.commands, goal_end_tick=self.goal_end_tick)
             return self._answered
         if self._waiting:
-            commanded = self._commanded
-            if not commanded:
+            if not self._commanded:
                 if wall_now < self._deadline:
                     return None
                 self.timeouts += 1
