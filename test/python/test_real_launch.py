@@ -62,6 +62,29 @@ def test_a_set_actors_nodes_get_the_scenario_and_the_generalist_its_mask():
     assert config.params["/rl_task_allocation_manager/mask"].value == "logic"   # the tuned preset's
 
 
+def params_of(launch_file, *args):
+    return roslaunch.config.load_config_default(
+        [(os.path.join(REPO, "launch", launch_file), ["roslaunch", "nav:=builtin", *args])], None, verbose=False).params
+
+
+def test_lookahead_reaches_every_actor_node_with_the_managers_hold_and_a_longer_choice_wait():
+    """real.launch lookahead:=true: each robot's actor looks ahead under the rule the task manager
+    runs (real robots hold a successor reached early); execute.launch and evaluate.launch too."""
+    params = params_of("real.launch", "method:=policy", "policy:=generalist", "lookahead:=true")
+    for robot in ("tb3_0", "tb3_1"):
+        assert params[f"/{robot}/robot_actor/lookahead"].value is True
+        assert params[f"/{robot}/robot_actor/hold_successors"].value is True
+    runner, args, _ = episodes_node("method:=policy", "policy:=generalist", "lookahead:=true")
+    assert args[args.index("--choice-timeout") + 1] == "300"
+    runner, args, _ = episodes_node("method:=policy", "policy:=generalist")
+    assert args[args.index("--choice-timeout") + 1] == "30"
+    assert params_of("real.launch", "method:=policy", "policy:=generalist")["/tb3_0/robot_actor/lookahead"].value is False
+    lab_3r = os.path.join(REPO, "scenarios", "lab_3r.xml")
+    params = params_of("evaluate.launch", "method:=lookahead", "policy:=generalist", "scenario:=" + lab_3r)
+    assert [params[f"/tb3_{i}/robot_actor/lookahead"].value for i in range(3)] == [True] * 3
+    assert params["/rl_task_allocation_manager/mask"].value == "finished"
+
+
 @pytest.mark.parametrize("method", ["rollout", "policy", "exact,rollout"])
 def test_an_actor_method_without_an_actor_stops_the_launch_before_it_starts_anything(method):
     """Before, method:=policy without policy:= started the robots' side and waited five minutes

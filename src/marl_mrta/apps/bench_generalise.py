@@ -5,6 +5,9 @@ Test scenarios are drawn by model/generator.py from a seed no training run uses 
 - the reference: the best known plan and the proven lower bound (baselines/reference.py, CP-SAT
   limited to `--reference-seconds` per model); every ratio below is a makespan ÷ that bound;
 - zero-shot: the generalist's greedy episode (embedded, ideal), and its time per decision;
+- zero-shot with lookahead: the robots' own actors, each looking ahead before it answers
+  (evaluation/lookahead.py, config/task_baselines.yaml's budget), no training, and the wall time
+  of one robot's decision;
 - zero-shot with rollout: the generalist's rollout plan (evaluation/rollout.py, the budget of
   config/task_baselines.yaml: the best of its eight orientations of the floor), no training
   either, its planning time, and the rollout's plan on the floor as it is alone;
@@ -35,6 +38,7 @@ from pathlib import Path
 from typing import Any, Callable, Dict, List, Optional, Sequence
 
 import numpy as np
+import torch
 
 from marl_mrta.apps.train_generalist import LAB_SCENARIOS, generated_scenarios, greedy_run as zero_shot
 from marl_mrta.baselines.ga import solve_ga
@@ -43,6 +47,10 @@ from marl_mrta.baselines.settings import load_baseline_settings
 from marl_mrta.common.config import ConfigError
 from marl_mrta.common.paths import package_root
 from marl_mrta.env.settings import load_task_settings
+from marl_mrta.env.factory import make_env
+from marl_mrta.evaluation.lookahead import Lookahead
+from marl_mrta.evaluation.loop import run_episode
+from marl_mrta.evaluation.robot_actor import in_process_team
 from marl_mrta.evaluation.rollout import rollout_plan
 from marl_mrta.evaluation.training import offer_teacher_plan, on_new_env
 from marl_mrta.mappo.config import load_config, resolve_preset
@@ -54,6 +62,16 @@ from marl_mrta.model.scenario import Scenario, ScenarioError, load_scenario
 
 #: Goals of the issue, by figure.
 GOALS = {"zero_shot_mean": 1.10, "finetuned_mean": 1.03}
+
+
+def looking_ahead(policy: SetActorPolicy, scenario: Scenario, mask: str, budget) -> Dict[str, float]:
+    """The robots' own actors looking ahead, one episode (embedded, ideal): its makespan (inf:
+    not complete in precedence order) and the robots' decisions in it."""
+    bound = policy.for_scenario(scenario)
+    record = run_episode(make_env(scenario, "embedded", mask=mask), in_process_team(bound, Lookahead(bound, budget)),
+                         seed=0)
+    return {"makespan": record.makespan if record.complete and record.logic_consistent else math.inf,
+            "decisions": max(1, record.decision_steps * scenario.n_robots)}
 
 
 def trained(scenario: Scenario, preset: str, seconds: float, seed: int, init: str, work: Path) -> Dict[str, float]:
@@ -111,6 +129,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def bench(args: argparse.Namespace, log: Callable[[str], None] = print) -> Dict[str, Any]:
+    torch.set_num_threads(1)   # as training runs (runner.make_deterministic): small networks, timed decisions
     path, data = read_actor_file(args.policy)
     policy = load_policy(path)
     if not isinstance(policy, SetActorPolicy):
@@ -134,6 +153,9 @@ def bench(args: argparse.Namespace, log: Callable[[str], None] = print) -> Dict[
             bound = reference.lower_bound
             shot = zero_shot(policy, scenario, mask)
             started = time.perf_counter()
+            looked = looking_ahead(policy, scenario, mask, settings.lookahead)
+            lookahead_s = time.perf_counter() - started
+            started = time.perf_counter()
             rolled = rollout_plan(policy, scenario, instance, settings.rollout, mask)
             rollout_s = time.perf_counter() - started
             row: Dict[str, Any] = {
@@ -141,6 +163,8 @@ def bench(args: argparse.Namespace, log: Callable[[str], None] = print) -> Dict[
                 "robots": scenario.n_robots, "tasks": scenario.n_tasks, "best": reference.best_makespan,
                 "bound": bound, "proven_optimal": reference.proven_optimal,
                 "zero_shot": ratio(shot["makespan"], bound), "decision_ms": shot["decision_ms"],
+                "lookahead": ratio(looked["makespan"], bound), "lookahead_s": lookahead_s,
+                "lookahead_decision_s": lookahead_s / looked["decisions"],
                 "rollout": ratio(rolled.usable_makespan, bound),
                 "rollout_s": rollout_s, "rollout_play_outs": rolled.details["play_outs"],
                 "rollout_orientation": rolled.details["orientation"],
@@ -157,12 +181,13 @@ def bench(args: argparse.Namespace, log: Callable[[str], None] = print) -> Dict[
             extra = "".join(f", {key} {row[key]:.3f}" for key in ("finetuned", "mappo") if key in row)
             log(f"{k + 1}/{len(labs) + len(tests)} {row['scenario']} {row['robots']}x{row['tasks']}: bound "
                 f"{bound:.2f} s{'' if row['proven_optimal'] else ' (gap ' + format(100 * reference.gap, '.1f') + ' %)'}, "
-                f"zero-shot {row['zero_shot']:.3f}, rollout {row['rollout']:.3f}, GA {row['ga']:.3f}{extra}")
+                f"zero-shot {row['zero_shot']:.3f}, lookahead {row['lookahead']:.3f}, rollout {row['rollout']:.3f}, GA {row['ga']:.3f}{extra}")
     test_rows = [r for r in rows if not r["lab"]]
     lab_rows = [r for r in rows if r["lab"]]
     figures = {
         "zero_shot": summary_of([r["zero_shot"] for r in test_rows]),
         "finetuned": summary_of([r["finetuned"] for r in test_rows if "finetuned" in r]),
+        "lookahead": summary_of([r["lookahead"] for r in test_rows]),
         "rollout": summary_of([r["rollout"] for r in test_rows]),
         "rollout_as_it_is": summary_of([r["rollout_as_it_is"] for r in test_rows]),
         "ga": summary_of([r["ga"] for r in test_rows]),
@@ -170,7 +195,11 @@ def bench(args: argparse.Namespace, log: Callable[[str], None] = print) -> Dict[
         "ga_on_finetuned_ones": summary_of([r["ga"] for r in test_rows if "finetuned" in r]),
         "zero_shot_on_mappo_ones": summary_of([r["zero_shot"] for r in test_rows if "mappo" in r]),
         "lab_zero_shot": {r["scenario"]: r["zero_shot"] for r in lab_rows},
+        "lab_lookahead": {r["scenario"]: r["lookahead"] for r in lab_rows},
         "lab_rollout": {r["scenario"]: r["rollout"] for r in lab_rows},
+        "lookahead_s_mean": float(np.mean([r["lookahead_s"] for r in rows])),
+        "lookahead_decision_s_mean": float(np.mean([r["lookahead_decision_s"] for r in rows])),
+        "lookahead_decision_s_max": float(np.max([r["lookahead_decision_s"] for r in rows])),
         "lab_finetuned": {r["scenario"]: r.get("finetuned", math.inf) for r in lab_rows},
         "rollout_s_mean": float(np.mean([r["rollout_s"] for r in rows])),
         "rollout_s_max": float(np.max([r["rollout_s"] for r in rows])),
@@ -186,6 +215,12 @@ def bench(args: argparse.Namespace, log: Callable[[str], None] = print) -> Dict[
         {"figure": "zero-shot / best bound, p90", "unit": "", "value": round(figures["zero_shot"]["p90"], 4), "goal": ""},
         {"figure": "zero-shot failures (incomplete or inconsistent)", "unit": "", "value": figures["zero_shot"]["failed"],
          "goal": "0"},
+        {"figure": "zero-shot, the robots' own decisions with lookahead (no training) / best bound, mean", "unit": "",
+         "value": round(figures["lookahead"]["mean"], 4), "goal": f"<= {GOALS['zero_shot_mean']} and <= GA"},
+        {"figure": "zero-shot with lookahead / best bound, p90", "unit": "", "value": round(figures["lookahead"]["p90"], 4),
+         "goal": ""},
+        {"figure": "zero-shot with lookahead failures (incomplete or inconsistent)", "unit": "",
+         "value": figures["lookahead"]["failed"], "goal": "0"},
         {"figure": "zero-shot with rollout (no training) / best bound, mean", "unit": "",
          "value": round(figures["rollout"]["mean"], 4), "goal": f"<= {GOALS['zero_shot_mean']} and <= GA"},
         {"figure": "zero-shot with rollout / best bound, p90", "unit": "", "value": round(figures["rollout"]["p90"], 4),
@@ -206,8 +241,14 @@ def bench(args: argparse.Namespace, log: Callable[[str], None] = print) -> Dict[
     headline += [
         {"figure": "lab zero-shot / optimum, worst of lab_2r/3r/4r", "unit": "",
          "value": round(max(figures["lab_zero_shot"].values()), 4), "goal": "1.0"},
+        {"figure": "lab zero-shot with lookahead / optimum, worst of lab_2r/3r/4r", "unit": "",
+         "value": round(max(figures["lab_lookahead"].values()), 4), "goal": "1.0"},
         {"figure": "time per decision step of the team", "unit": "ms", "value": round(figures["decision_ms_mean"], 2),
          "goal": ""},
+        {"figure": "time per robot decision with lookahead, mean", "unit": "s",
+         "value": round(figures["lookahead_decision_s_mean"], 3), "goal": ""},
+        {"figure": "time per robot decision with lookahead, worst scenario's mean", "unit": "s",
+         "value": round(figures["lookahead_decision_s_max"], 3), "goal": ""},
         {"figure": "rollout planning time per scenario, mean", "unit": "s", "value": round(figures["rollout_s_mean"], 2),
          "goal": ""},
         {"figure": "GA planning time per scenario, mean", "unit": "s", "value": round(figures["ga_s_mean"], 2), "goal": ""},

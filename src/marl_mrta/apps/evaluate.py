@@ -4,6 +4,7 @@
              --executor embedded --seed 0 --out results/eval_lab_2r.json
     evaluate --method exact --episodes 5 --executor ros     # through a running task manager (tasks.launch)
     evaluate --method policy,rollout --policy generalist --scenario my_floor.xml   # the actor, and its rollout plan
+    evaluate --method policy,lookahead --policy generalist --scenario my_floor.xml # the robots' own decisions, alone and looking ahead
 
 Writes the JSON (summaries, plans, the reference: best known makespan, proven lower bound and
 gap, representative episodes) and one Gantt chart PNG per method (<out stem>_<method>_gantt.png).
@@ -33,15 +34,17 @@ from marl_mrta.env.factory import EXECUTORS, make_env
 from marl_mrta.env.settings import MASK_MODES
 from marl_mrta.evaluation.loop import run_episodes
 from marl_mrta.evaluation.policies import LearnedPolicy, PlanPolicy, PolicyLoadError
+from marl_mrta.evaluation.lookahead import Lookahead
+from marl_mrta.evaluation.robot_actor import in_process_team
 from marl_mrta.evaluation.rollout import RolloutError, rollout_plan
 from marl_mrta.evaluation.summary import (ProgressLine, episode_rows, format_table, method_report,
                                           write_document)
 from marl_mrta.mappo.policy import PolicyFileError, load_policy
 from marl_mrta.model.scenario import Scenario, ScenarioError
 
-METHODS = ("random", "ga", "exact", "auction", "policy", "rollout")
+METHODS = ("random", "ga", "exact", "auction", "policy", "lookahead", "rollout")
 #: The methods that act with an actor file (--policy).
-POLICY_METHODS = ("policy", "rollout")
+POLICY_METHODS = ("policy", "lookahead", "rollout")
 #: "ros": episodes run in the ROS graph through rl_task_allocation_manager's services.
 CLI_EXECUTORS = EXECUTORS + ("ros",)
 DEFAULT_SCENARIO = package_root() / "scenarios" / "lab_2r.xml"
@@ -71,7 +74,7 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> argparse.Namespace:
                              "it (docs/task_allocation.md, Step rules; default: config/task.yaml, or on with an actor "
                              "--policy trained under it; --executor ros: the task manager's)")
     parser.add_argument("--policy", default=None,
-                        help="actor file for --method policy or rollout (an MLP actor: its scenario; a set actor: any "
+                        help="actor file for --method policy, lookahead or rollout (an MLP actor: its scenario; a set actor: any "
                              "scenario), or generalist (the shipped set actor)")
     parser.add_argument("--seed", type=int, default=0, help="seed of episodes and planners (default 0)")
     parser.add_argument("--out", default=None,
@@ -122,7 +125,7 @@ def make_ros_env(args: argparse.Namespace):
         raise UsageError(f"--mask: {args.mask} differs from the task manager's mask ({env.settings.mask})")
     if args.hold_successors and not env.settings.hold_successors:
         raise UsageError("--hold-successors: the task manager runs without it (its hold_successors parameter)")
-    if "policy" in args.methods:
+    if {"policy", "lookahead"} & set(args.methods):
         LearnedPolicy.trained_mask(args.policy, env.settings.mask)
     return env
 
@@ -133,6 +136,18 @@ def plan_for(method: str, instance: SchedulingInstance, settings, seed: int) -> 
     if method == "auction":
         return under_either_rules(lambda inst: solve_auction(inst, settings.auction_objective), instance)
     raise ValueError(method)
+
+
+def lookahead_team(args: argparse.Namespace, env, settings):
+    """The robots' own actors deciding with lookahead (evaluation/lookahead.py), each from its
+    own observation row, answering in this process."""
+    actor = LearnedPolicy.from_file(args.policy, env.n_agents, env.obs_dim, env.n_actions, seed=args.seed,
+                                    scenario=env.scenario).actor
+    try:
+        lookahead = Lookahead(actor, settings.lookahead, env.settings.hold_successors)
+    except ValueError as error:
+        raise PolicyLoadError(f"--method lookahead: {error}") from None
+    return in_process_team(actor, lookahead)
 
 
 def rollout_for(args: argparse.Namespace, scenario: Scenario, instance: SchedulingInstance, settings) -> Plan:
@@ -202,10 +217,13 @@ def output_path(args: argparse.Namespace, scenario_name: str) -> Path:
 
 
 def evaluate(args: argparse.Namespace) -> int:
+    if set(args.methods) & set(POLICY_METHODS):
+        import torch
+        torch.set_num_threads(1)   # small networks, many calls (a rollout's or a lookahead's play-outs): one thread is faster
     if args.executor == "ros":
         env = make_ros_env(args)
     else:
-        if "policy" in args.methods:
+        if {"policy", "lookahead"} & set(args.methods):
             args.mask = LearnedPolicy.trained_mask(args.policy, args.mask)
         if args.policy and not args.hold_successors and LearnedPolicy.trained_hold(args.policy):
             # Its episodes and plans under the rules it learned: a robot may be sent ahead to wait.
@@ -251,6 +269,8 @@ def evaluate(args: argparse.Namespace) -> int:
         elif method == "policy":
             policy = LearnedPolicy.from_file(args.policy, env.n_agents, env.obs_dim, env.n_actions, seed=args.seed,
                                              scenario=scenario)
+        elif method == "lookahead":
+            policy = lookahead_team(args, env, settings)
         else:
             policy = PlanPolicy(plan, env.n_agents, env.n_tasks)
         progress = None if args.quiet else ProgressLine(f"{method} on {scenario.name}")

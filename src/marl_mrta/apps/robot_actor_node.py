@@ -3,15 +3,20 @@
 Started in the robot's namespace (launch/execute.launch). Parameters: ~policy (actor file, or generalist),
 ~agent_index (this robot's index in the scenario's robot order), ~scenario (the scenario file:
 a set actor reads its observation with the scenario's tasks and nominal travel times, which
-every robot knows). Subscribes only to this robot's task_observation (marl_mrta/RobotObservation) and publishes its choice on task_choice
+every robot knows), ~lookahead (true: each choice looks ahead, evaluation/lookahead.py; a set actor
+only; its budget in config/task_baselines.yaml), ~hold_successors (the task manager's rule, which the
+lookahead's model of the episode follows; empty: config/task.yaml's). Subscribes only to this robot's task_observation (marl_mrta/RobotObservation) and publishes its choice on task_choice
 (marl_mrta/TaskChoice); its GRU state is its own, reset at each episode_start. Sets
 ~action_mask, ~decision_order and ~turn_order to those its policy was trained with (rl_manager
 checks them; a sequential policy is asked in turn, with the tasks claimed before it in `claimed`).
 """
 
 import rospy
+import torch
 
+from marl_mrta.baselines.settings import load_baseline_settings
 from marl_mrta.common.config import ConfigError
+from marl_mrta.evaluation.lookahead import Lookahead
 from marl_mrta.mappo.policy import PolicyFileError, SetActorPolicy, actor_file_path, load_policy
 from marl_mrta.model.scenario import ScenarioError, load_scenario
 from marl_mrta.msg import RobotObservation, TaskChoice
@@ -25,13 +30,20 @@ def main() -> int:
         rospy.logfatal("%s/%s: missing: give the actor file (~policy) and this robot's index (~agent_index)",
                        name, "policy" if not rospy.has_param("~policy") else "agent_index")
         return 2
+    torch.set_num_threads(1)   # one robot's small network, and its lookahead's many play-outs: faster on one thread
     try:
         policy = load_policy(rospy.get_param("~policy"))
         if isinstance(policy, SetActorPolicy):
             if not rospy.get_param("~scenario", ""):
                 raise ValueError(f"{name}/scenario: missing: a set actor needs the scenario file")
             policy = policy.for_scenario(load_scenario(rospy.get_param("~scenario")))
-        actor = RobotActor(policy, int(rospy.get_param("~agent_index")))
+        lookahead = None
+        if rospy.get_param("~lookahead", False):
+            hold = str(rospy.get_param("~hold_successors", "")).strip().lower()
+            if hold not in ("", "true", "false"):
+                raise ValueError(f"{name}/hold_successors: {hold!r}: give true, false or nothing")
+            lookahead = Lookahead(policy, load_baseline_settings().lookahead, None if not hold else hold == "true")
+        actor = RobotActor(policy, int(rospy.get_param("~agent_index")), lookahead)
     except (PolicyFileError, ObservationError, ScenarioError, ConfigError, ValueError) as error:
         rospy.logfatal("%s: %s", name, error)
         return 2
@@ -39,6 +51,10 @@ def main() -> int:
     rospy.set_param("~decision_order", actor.policy.decision_order)
     rospy.set_param("~turn_order", actor.policy.turn_order)
     choices = rospy.Publisher("task_choice", TaskChoice, queue_size=10)
+    tasks = [task.id for task in policy.view.scenario.tasks] if isinstance(policy, SetActorPolicy) else []
+
+    def task_name(action: int) -> str:
+        return tasks[action] if action < len(tasks) else "None"
 
     def on_observation(msg: RobotObservation) -> None:
         try:
@@ -49,8 +65,16 @@ def main() -> int:
             rospy.logerr_throttle(5.0, "%s: episode %d step %d: %s" % (name, msg.episode, msg.step, error))
             return
         choices.publish(TaskChoice(episode=decision.episode, step=decision.step, action=decision.action))
+        looked = actor.looked
+        if looked is not None and not decision.repeated and looked.action != looked.own:
+            rospy.loginfo("%s: episode %d step %d: %s instead of the actor's %s (the team's episode found ends at "
+                          "%.2f s, orientation %d; %d play-outs)", name, msg.episode, msg.step, task_name(looked.action),
+                          task_name(looked.own), looked.makespan, looked.orientation, looked.play_outs)
 
     rospy.Subscriber("task_observation", RobotObservation, on_observation, queue_size=10)
-    rospy.loginfo("%s: robot %d acting with %s", name, actor.agent_index, actor_file_path(rospy.get_param("~policy")))
+    rospy.loginfo("%s: robot %d acting with %s%s", name, actor.agent_index, actor_file_path(rospy.get_param("~policy")),
+                  "" if lookahead is None else ", looking ahead over %d orientation(s), %d other actions per turn, "
+                  "up to %d play-outs a step" % (len(lookahead.actors), 2 * lookahead.budget.alternatives,
+                                                 lookahead.budget.max_play_outs))
     rospy.spin()
     return 0

@@ -34,6 +34,14 @@ class RolloutBudget:
 
 
 @dataclass(frozen=True)
+class LookaheadBudget:
+    """A robot's own decision with lookahead (evaluation/lookahead.py): the team's step searched by rollout."""
+    alternatives: int = 3          # at each turn: the actor's most likely other actions, and as many held-back nearest tasks
+    orientations: int = 8          # the floor as it is, then turned and mirrored: a search each
+    max_play_outs: int = 500       # per step and robot, over all orientations; then the best found is taken
+
+
+@dataclass(frozen=True)
 class BaselineSettings:
     random_choice: str
     ga: GaSettings
@@ -44,6 +52,7 @@ class BaselineSettings:
     cpsat: CpSatBudget
     precedence_margin: float       # s between a predecessor's finish and a successor's arrival in one step
     rollout: RolloutBudget
+    lookahead: LookaheadBudget
 
     def with_cpsat(self, time_limit: Optional[float] = None, workers: Optional[int] = None) -> "BaselineSettings":
         """These settings with the CP-SAT time limit and worker count replaced where given."""
@@ -84,6 +93,7 @@ def load_baseline_settings(path: Optional[Union[str, Path]] = None) -> BaselineS
                         time_limit=exact.number("time_limit", above=0.0), memory_mb=exact.number("memory_mb", above=0.0))
     cpsat = root.section("cpsat")
     rollout = root.section("rollout")
+    lookahead = root.section("lookahead")
     budget = CpSatBudget(time_limit=cpsat.number("time_limit", above=0.0), workers=cpsat.integer("workers", minimum=1),
                          seed=cpsat.integer("seed", minimum=0), memory_mb=cpsat.number("memory_mb", above=0.0))
     settings = BaselineSettings(
@@ -98,6 +108,9 @@ def load_baseline_settings(path: Optional[Union[str, Path]] = None) -> BaselineS
         rollout=RolloutBudget(alternatives=rollout.integer("alternatives", minimum=1),
                               max_rollouts=rollout.integer("max_rollouts", minimum=1),
                               orientations=rollout.integer("orientations", minimum=1, maximum=8)),
+        lookahead=LookaheadBudget(alternatives=lookahead.integer("alternatives", minimum=0),
+                                  orientations=lookahead.integer("orientations", minimum=1, maximum=8),
+                                  max_play_outs=lookahead.integer("max_play_outs", minimum=1)),
     )
     root.check_all_used()
     return settings

@@ -48,6 +48,12 @@ class EmbeddedExecutor:
         self._in_contact = set()
         self.clock = 0.0
 
+    def place(self, nodes: Sequence[int]) -> None:
+        """Stand the robots on these nodes of the table (after reset(): an episode resumed midway)."""
+        if len(nodes) != self.n_robots or not all(0 <= int(node) < self.table.n_nodes for node in nodes):
+            raise ValueError(f"nodes {list(nodes)}: one node of the table per robot ({self.n_robots})")
+        self._nodes = [int(node) for node in nodes]
+
     def leg_time(self, start: int, goal: int) -> float:
         """Seconds to drive from node `start` to node `goal` under the noise profile."""
         if self.nominal:

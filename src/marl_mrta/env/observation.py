@@ -294,6 +294,11 @@ class SetObservationEncoder:
             xy[r, [i for i in range(n) if i != robot]] = others[r]
         return xy * scale + offset
 
+    def nearest_nodes(self, xy: np.ndarray) -> np.ndarray:
+        """(..., n_robots) the travel table's node nearest each position (..., n_robots, 2): where a
+        robot stands in the table's terms (a start pose or a task's goal, within its tolerance)."""
+        return np.argmin(((xy[..., None, :] - self.node_xy) ** 2).sum(-1), axis=-1)
+
     def encode(self, rows: np.ndarray, robots: Sequence[int], layout: SetLayout, sequential: bool) -> np.ndarray:
         """Set rows (k, layout.width) of observation rows (k, obs_dim) of robots `robots`;
         sequential: the robots decide in turn (turn_ranks; robot tokens say who decided before)."""
@@ -305,7 +310,7 @@ class SetObservationEncoder:
         ready = rows[:, f.at_ready:f.at_ready + m] > 0.5
         open_ = ~finished
         xy = self.robot_positions(rows, robots)                                          # (k, n, 2)
-        nodes = np.argmin(((xy[:, :, None, :] - self.node_xy[None, None]) ** 2).sum(-1), axis=-1)
+        nodes = self.nearest_nodes(xy)
         travel = np.minimum(self.to_task[nodes], TIME_CAP)                               # (k, n, m)
         me = xy[np.arange(k), robots]                                                    # (k, 2)
         own = travel[np.arange(k), robots]                                               # (k, m)

@@ -76,6 +76,29 @@ class TaskEnvironment:
         return self._output(poses, total, dict(zip(REWARD_COMPONENTS, components)), False, False,
                             StepInfo(step=0, elapsed=0.0, finished=list(self.finished)))
 
+    def resume(self, nodes: Sequence[int], finished: Sequence[bool], elapsed: float, step_index: int) -> StepOutput:
+        """An episode taken up midway, as a robot observes it: the robots standing on `nodes` of the
+        executor's table, `finished` tasks done (in order; their finish times are not known, so
+        `elapsed`), `elapsed` s and `step_index` steps gone. The record holds the rest of the
+        episode; its makespan counts from the start. The executor must place robots (embedded)."""
+        if len(finished) != self.n_tasks:
+            raise ValueError(f"finished: {len(finished)} flags, the scenario has {self.n_tasks} tasks")
+        self.reset()
+        self.executor.place(nodes)
+        self.elapsed, self.step_index = float(elapsed), int(step_index)
+        self.finished = [bool(flag) for flag in finished]
+        for task, done in enumerate(self.finished):
+            if done:
+                self.finish_time[task], self.task_correct[task] = self.elapsed, True
+        self.n_finished = sum(self.finished)
+        poses = self.executor.poses()
+        self.current_goal = [(p[0], p[1]) for p in poses]
+        self.previous_goal = list(self.current_goal)
+        self._tasks_changed()
+        *components, total = np.zeros((len(REWARD_COMPONENTS) + 1, self.n_agents), dtype=np.float32)
+        return self._output(poses, total, dict(zip(REWARD_COMPONENTS, components)), False, False,
+                            StepInfo(step=self.step_index, elapsed=self.elapsed, finished=list(self.finished)))
+
     def step(self, actions: Sequence[int]) -> StepOutput:
         if self.record is None or self.over:
             raise RuntimeError("step() called before reset() or after the episode ended")

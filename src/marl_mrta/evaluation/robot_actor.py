@@ -1,8 +1,10 @@
 """One robot's decision maker at run time (decentralised execution, scripts/robot_actor).
 
 RobotActor holds a trained actor (mappo.policy.load_policy) and this robot's own recurrent
-state; it sees only this robot's observation and answers with this robot's task. No rospy
-here: the node shell feeds it RobotObservation messages and publishes its TaskChoice.
+state; it sees only this robot's observation and answers with this robot's task, from the
+actor alone or looking ahead (evaluation/lookahead.py). No rospy here: the node shell feeds it
+RobotObservation messages and publishes its TaskChoice. in_process_team: the same robots
+answering through the evaluation's DecentralisedPolicy without ROS.
 """
 from __future__ import annotations
 
@@ -10,6 +12,10 @@ from dataclasses import dataclass
 from typing import Optional, Sequence, Tuple
 
 import numpy as np
+
+from marl_mrta.evaluation.decentralised import ChoiceBoard, DecentralisedPolicy, ObservationRow
+from marl_mrta.evaluation.lookahead import Lookahead, LookaheadChoice
+from marl_mrta.mappo.policy import ActorPolicy
 
 
 class ObservationError(ValueError):
@@ -27,14 +33,17 @@ class Decision:
 
 
 class RobotActor:
-    """A shared actor acting for robot `agent_index` only, with its own GRU hidden state."""
+    """A shared actor acting for robot `agent_index` only, with its own GRU hidden state;
+    with `lookahead`, each choice is the lookahead's from the actor's distribution."""
 
-    def __init__(self, policy, agent_index: int):
+    def __init__(self, policy, agent_index: int, lookahead: Optional[Lookahead] = None):
         if not 0 <= agent_index < policy.n_agents:
             raise ObservationError(f"agent_index: {agent_index} outside 0..{policy.n_agents - 1} "
                                    f"(the actor was trained for {policy.n_agents} robots)")
         self.policy = policy
         self.agent_index = agent_index
+        self.lookahead = lookahead
+        self.looked: Optional[LookaheadChoice] = None   # the last lookahead's candidates and scores
         self.hidden = policy.initial_hidden(1)
         self._last: Optional[Decision] = None
 
@@ -52,9 +61,17 @@ class RobotActor:
         claimed_row = self._claimed(claimed)
         if episode_start:
             self.hidden = self.policy.initial_hidden(1)
-        actions, self.hidden = self.policy.act(obs_row, mask_row, self.hidden, deterministic=True,
-                                               agent_ids=[self.agent_index], claimed=claimed_row)
-        self._last = Decision(episode, step, int(actions[0]), repeated=False)
+        if self.lookahead is None:
+            actions, self.hidden = self.policy.act(obs_row, mask_row, self.hidden, deterministic=True,
+                                                   agent_ids=[self.agent_index], claimed=claimed_row)
+            action = int(actions[0])
+        else:
+            logits, mask_t, self.hidden = self.policy.logits(obs_row, mask_row, self.hidden, [self.agent_index],
+                                                             claimed_row)
+            self.looked = self.lookahead.choose(self.agent_index, obs_row[0], logits[0], mask_t[0],
+                                                None if claimed_row is None else claimed_row[0])
+            action = self.looked.action
+        self._last = Decision(episode, step, action, repeated=False)
         return self._last
 
     def _claimed(self, claimed: Sequence[int]) -> Optional[np.ndarray]:
@@ -82,3 +99,22 @@ class RobotActor:
         if not mask.any():
             raise ObservationError("action_mask: no action allowed")
         return obs_row, mask.astype(bool).reshape(1, -1)
+
+
+def in_process_team(policy: ActorPolicy, lookahead: Optional[Lookahead] = None) -> DecentralisedPolicy:
+    """The robots' own actors (one RobotActor each, as their nodes) answering the evaluation
+    runner in this process: each sent only its own row, in the actor's turn order."""
+    names = [f"robot_{i}" for i in range(policy.n_agents)]
+    board = ChoiceBoard(names)
+    actors = [RobotActor(policy, i, lookahead) for i in range(policy.n_agents)]
+
+    def send(robot: int, row: ObservationRow) -> None:
+        decision = actors[robot].decide(row.episode, row.step, row.episode_start, row.obs, row.action_mask.tobytes(),
+                                        row.agent_index, row.claimed.tobytes())
+        board.offer(robot, decision.episode, decision.step, decision.action)
+
+    turns = policy.turns if policy.sequential and policy.turn_order != "index" else None
+    team = DecentralisedPolicy(policy.n_agents, send, board, timeout=60.0,
+                               claim_rules=policy.claim_rules if policy.sequential else None, turns=turns)
+    team.name = "lookahead" if lookahead is not None else "policy"
+    return team

@@ -129,16 +129,10 @@ class RolloutPlanner:
         raise RuntimeError(f"the rollout's episode did not end within {MAX_STEPS} steps")
 
     def alternatives(self, turn: _Turn, finished: Sequence[bool]) -> List[int]:
-        """The actions tried at a turn besides the actor's: its most likely other allowed ones, and
-        the nearest open tasks its precedence mask holds back (a robot heading for a successor
-        whose predecessor a robot after it takes: plans the actor's in-turn decision cannot make)."""
-        ranked = torch.where(turn.mask, turn.logits, torch.full_like(turn.logits, -math.inf))
-        order = sorted(range(len(ranked)), key=lambda a: (-float(ranked[a]), a))
-        own = [a for a in order if bool(turn.mask[a])][1:1 + self.budget.alternatives]
+        """The actions tried at a turn besides the actor's (other_actions)."""
         legs = self.instance.travel_rows[turn.node]
-        held = [t for t in range(self.none) if not (finished[t] or turn.claimed[t] or turn.mask[t])]
-        held.sort(key=lambda t: (legs[self.instance.node(t)], t))
-        return own + held[:self.budget.alternatives]
+        return other_actions(turn.logits, turn.mask, turn.claimed, finished,
+                             [legs[self.instance.node(t)] for t in range(self.none)], self.budget.alternatives)
 
     def plan(self) -> Tuple[_PlayOut, float]:
         """The improved episode, and the actor's own episode's makespan as a plan (inf: none)."""
@@ -168,6 +162,20 @@ class RolloutPlanner:
             deviations.append(step)
             watched = self.play(deviations, watch=len(deviations))
         return watched, greedy
+
+
+def other_actions(logits: torch.Tensor, mask: torch.Tensor, claimed: Sequence[bool], finished: Sequence[bool],
+                  legs: Sequence[float], count: int) -> List[int]:
+    """The actions worth trying at a robot's turn besides the actor's own: its `count` most likely
+    other allowed ones, and the `count` nearest open tasks (by `legs`, per task) its precedence mask
+    holds back: a robot heading for a successor whose predecessor a robot after it takes, plans
+    the actor's in-turn decision cannot make."""
+    ranked = torch.where(mask, logits, torch.full_like(logits, -math.inf))
+    order = sorted(range(len(ranked)), key=lambda a: (-float(ranked[a]), a))
+    own = [a for a in order if bool(mask[a])][1:1 + count]
+    held = [t for t in range(len(legs)) if not (finished[t] or claimed[t] or mask[t])]
+    held.sort(key=lambda t: (legs[t], t))
+    return own + held[:count]
 
 
 def _better(played: _PlayOut, incumbent: _PlayOut) -> bool:

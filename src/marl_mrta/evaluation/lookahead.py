@@ -1,0 +1,211 @@
+"""A robot's own decision with lookahead: the team's step searched by rollout, by every robot alike.
+
+At its turn, a robot deciding with a set actor (the generalist) looks ahead before it answers.
+From the state it observes in its own observation row (where every robot stands, which tasks are
+finished, the episode time) it searches the team's joint action for this step on an embedded,
+ideal model of the scenario, as the rollout planner searches a step (evaluation/rollout.py):
+the shared actor's episode from here is the incumbent; at every robot's turn its most likely
+other actions and the nearest open tasks its precedence mask holds back (other_actions) are each
+played out to the end with the actor deciding the rest, the shortest becomes the incumbent, and
+one more deviation is tried at the other turns while one shortens it. This runs once per
+orientation of the floor (env/observation.py, ORIENTATIONS: the same actor decides otherwise on
+the floor turned or mirrored), and the shortest episode gives the step's joint action. The robot
+answers with its own part of it.
+
+Every robot observes the same state and runs the same deterministic search, so each finds the
+same joint action, and the team acts on it without sending anything beyond what the robots are
+sent today: no robot needs another's search. The tasks claimed before a robot in this step are
+the check: should they differ from the joint action (a robot that decided otherwise), the robot
+searches again with those robots' choices fixed.
+
+Play-outs start every step as an episode resumed there would: fresh recurrent states and no
+durations of a last step. An episode played from the next step is then the rest of this one, so
+the search at the next step starts from the episode found at this one, and the team's episode
+is never longer than the actor's own from any state (the rollout's cost improvement, Bertsekas
+2013). The price is compute: at most `max_play_outs` play-outs per step and robot
+(config/task_baselines.yaml, lookahead).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Dict, List, Optional, Tuple
+
+import numpy as np
+import torch
+
+from marl_mrta.baselines.settings import LookaheadBudget
+from marl_mrta.env.factory import make_env
+from marl_mrta.evaluation.loop import MAX_STEPS
+from marl_mrta.evaluation.rollout import other_actions
+from marl_mrta.mappo.policy import SetActorPolicy
+
+
+@dataclass(frozen=True)
+class ObservedState:
+    """The episode as one robot's observation row has it, in the travel table's terms."""
+    nodes: List[int]            # per robot: the table's node nearest where it stands
+    finished: List[bool]        # per task
+    elapsed: float              # s of episode time
+    step_index: int
+
+
+@dataclass(frozen=True)
+class LookaheadChoice:
+    action: int                 # the action taken (n_tasks: None)
+    own: int                    # the actor's own choice
+    makespan: float             # of the team's episode the search found (inf: none complete in order)
+    orientation: int            # whose play-out it was
+    play_outs: int              # played for this decision (0: the step's search was done already)
+
+
+@dataclass
+class _PlayOut:
+    makespan: float                             # inf: not complete in precedence order, or cut off
+    joint: List[int]                            # the step's joint action (n_tasks: None)
+    turns: List[Tuple[int, torch.Tensor, torch.Tensor, torch.Tensor]]   # (robot, logits, mask, claimed) in turn order
+
+
+@dataclass(frozen=True)
+class _StepPlan:
+    makespan: float
+    joint: List[int]
+    order: List[int]            # the robots in turn order
+    orientation: int
+
+
+class Lookahead:
+    """Decisions with lookahead for the robots of one scenario, with a set actor bound to it
+    (SetActorPolicy.for_scenario). Robots that share one (in one process) share its searches."""
+
+    def __init__(self, policy: SetActorPolicy, budget: LookaheadBudget, hold_successors: Optional[bool] = None):
+        if not isinstance(policy, SetActorPolicy) or policy.view is None or not policy.sequential:
+            raise ValueError(f"{getattr(policy, 'source', policy)}: lookahead needs a set actor that decides in "
+                             f"turn, bound to the scenario (the generalist, or a file fine-tuned from it)")
+        self.policy, self.budget = policy, budget
+        self.view = policy.view
+        scenario = self.view.scenario
+        self.env = make_env(scenario, "embedded", profile="ideal", mask=policy.action_mask,
+                            hold_successors=hold_successors)
+        self.actors = [policy.turned(k) for k in range(min(budget.orientations, policy.orientations))]
+        self.none = scenario.n_tasks
+        self._searched: Dict[tuple, _StepPlan] = {}
+        self._play_outs = 0
+
+    def state_of(self, row: np.ndarray, agent_index: int) -> ObservedState:
+        """The state robot `agent_index` observes in its own row (env/observation.py's layout)."""
+        flat, encoder = self.view.flat, self.view.encoder
+        rows = np.asarray(row, dtype=np.float64).reshape(1, -1)
+        nodes = encoder.nearest_nodes(encoder.robot_positions(rows, [agent_index]))[0]
+        finished = rows[0, flat.at_finished:flat.at_finished + flat.n_tasks] > 0.5
+        return ObservedState([int(n) for n in nodes], [bool(f) for f in finished],
+                             float(rows[0, 1]) * flat.timeout, int(round(float(rows[0, 0]) * flat.step_scale)))
+
+    def choose(self, agent_index: int, row: np.ndarray, logits: torch.Tensor, mask: torch.Tensor,
+               claimed: Optional[np.ndarray]) -> LookaheadChoice:
+        """Robot `agent_index`'s action, from its observation row, its actor's logits and mask at
+        this turn (n_actions,: the actor's own choice, for the record), and the tasks claimed
+        before it (n_tasks,: k + 1 = robot k's; None: none)."""
+        own = int(torch.argmax(torch.where(mask, logits, torch.full_like(logits, -math.inf))))
+        if self.budget.alternatives == 0 and len(self.actors) == 1:
+            return LookaheadChoice(own, own, math.inf, 0, 0)
+        state = self.state_of(row, agent_index)
+        claimers = np.zeros(self.none, dtype=np.int64) if claimed is None else np.asarray(claimed).reshape(-1)
+        took = {int(k) - 1: task for task, k in enumerate(claimers) if k > 0}
+        self._play_outs = 0
+        plan = self._search(state, {})
+        before = plan.order[:plan.order.index(agent_index)]
+        fixed = {robot: took.get(robot, self.none) for robot in before}
+        if any(plan.joint[robot] != action for robot, action in fixed.items()):
+            plan = self._search(state, fixed)   # a robot before this one decided otherwise: search around it
+        return LookaheadChoice(plan.joint[agent_index], own, plan.makespan, plan.orientation, self._play_outs)
+
+    def episodes_alone(self, state: ObservedState) -> List[float]:
+        """Per orientation, the makespan of the episode from `state` with the actor deciding
+        everything (inf: not complete in precedence order): what the lookahead never exceeds."""
+        return [self._play(actor, state, {}).makespan for actor in self.actors]
+
+    def _search(self, state: ObservedState, fixed: Dict[int, int]) -> _StepPlan:
+        """The step's joint action by rollout from `state`, the robots in `fixed` holding their actions."""
+        key = (tuple(state.nodes), tuple(state.finished), round(state.elapsed, 3), state.step_index,
+               tuple(sorted(fixed.items())))
+        if key not in self._searched:
+            if len(self._searched) > 64:   # one episode's steps at a time
+                self._searched.clear()
+            self._searched[key] = self._searched_step(state, fixed)
+        return self._searched[key]
+
+    def _searched_step(self, state: ObservedState, fixed: Dict[int, int]) -> _StepPlan:
+        # Every orientation's own episode first, then the searches from the shortest of them on:
+        # the episode the last step's search found goes on as one of them, so the budget cannot
+        # leave it out.
+        incumbents = [self._play(actor, state, fixed) for actor in self.actors]
+        budget = self.budget.max_play_outs - len(incumbents)
+        best: Optional[_StepPlan] = None
+        for k in sorted(range(len(self.actors)), key=lambda k: (incumbents[k].makespan, k)):
+            actor, incumbent, step = self.actors[k], incumbents[k], dict(fixed)
+            while budget > 0:   # one more deviation at another turn while one shortens the episode
+                shortest, chosen = incumbent.makespan, None
+                for robot, logits, mask, claimed in incumbent.turns:
+                    if robot in step:
+                        continue
+                    legs = self.view.encoder.to_task[state.nodes[robot]]
+                    taken = set(step.values()) - {self.none}   # a task another robot deviated to is not free
+                    for action in other_actions(logits, mask, claimed, state.finished, legs, self.budget.alternatives):
+                        if budget <= 0:
+                            break
+                        if action in taken:
+                            continue
+                        trial = {**step, robot: action}
+                        played = self._play(actor, state, trial, shortest)
+                        budget -= 1
+                        if played.makespan < shortest - 1e-9:
+                            shortest, chosen = played.makespan, trial
+                if chosen is None:
+                    break
+                step = chosen
+                incumbent = self._play(actor, state, step)
+                budget -= 1
+            found = _StepPlan(incumbent.makespan, incumbent.joint, [t[0] for t in incumbent.turns], k)
+            if best is None or found.makespan < best.makespan - 1e-9:
+                best = found
+        assert best is not None
+        return best
+
+    def _play(self, actor: SetActorPolicy, state: ObservedState, step: Dict[int, int],
+              cutoff: float = math.inf) -> _PlayOut:
+        """The episode from `state` with the robots in `step` taking those actions in its first
+        step and `actor` deciding everything else: its makespan (inf: not complete in precedence
+        order, or not shorter than `cutoff`, where it is given up: an actor that idles can take many
+        steps to its timeout), the first step's joint action and its turns.
+
+        The actor plays every step as it would the first step of an episode resumed there: from a
+        fresh recurrent state, and without the last step's durations and arrival flag (a resumed
+        episode has none). An episode played from a later step is then this one's rest."""
+        self._play_outs += 1
+        env, flat = self.env, self.view.flat
+        output = env.resume(state.nodes, state.finished, state.elapsed, state.step_index)
+        turns: List[Tuple[int, torch.Tensor, torch.Tensor, torch.Tensor]] = []
+
+        def first_step(turn: int, robot: int, logits: torch.Tensor, mask: torch.Tensor,
+                       claimed: torch.Tensor) -> Optional[int]:
+            turns.append((robot, logits, mask, claimed))
+            return step.get(robot)
+
+        joint: List[int] = []
+        for index in range(MAX_STEPS):
+            obs = output.obs.copy()
+            obs[:, flat.at_durations:flat.at_durations + 2] = 0.0
+            obs[:, flat.at_reached] = 0.0
+            actions, _ = actor.act_team(obs, output.action_mask, actor.initial_hidden(env.n_agents),
+                                        pick=first_step if index == 0 else None)
+            actions = [int(a) for a in np.asarray(actions).reshape(-1)]
+            joint = joint or actions
+            output = env.step(actions)
+            if output.done or output.truncated:
+                record = output.info.episode
+                made = record.makespan if record.complete and record.logic_consistent else math.inf
+                return _PlayOut(made, joint, turns)
+            if output.info.elapsed >= cutoff:
+                return _PlayOut(math.inf, joint, turns)
+        raise RuntimeError(f"a play-out did not end within {MAX_STEPS} steps")

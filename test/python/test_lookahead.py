@@ -1,0 +1,168 @@
+"""The robots' own decisions with lookahead (evaluation/lookahead.py): each robot plays the team's
+actor out from the state in its own observation row before it answers. The state it reads is the
+environment's; an episode resumed there goes on as the original; the lookahead reaches lab_3r's
+optimum that the actor alone misses, is never longer than the actor's own episodes under any
+orientation, and runs through `evaluate --method lookahead`."""
+import json
+import math
+
+import pytest
+
+from marl_mrta.apps.evaluate import main as evaluate_main
+from marl_mrta.baselines.exact import solve_exact
+from marl_mrta.baselines.reference import scheduling_instance
+from marl_mrta.baselines.settings import LookaheadBudget, load_baseline_settings
+from marl_mrta.common.paths import package_root
+from marl_mrta.env.factory import make_env
+from marl_mrta.env.settings import load_task_settings
+from marl_mrta.evaluation.lookahead import Lookahead
+from marl_mrta.evaluation.loop import run_episode
+from marl_mrta.evaluation.robot_actor import in_process_team
+from marl_mrta.mappo.policy import load_policy
+from marl_mrta.model.scenario import load_scenario
+
+LAB = package_root() / "scenarios"
+
+
+@pytest.fixture(autouse=True)
+def one_thread():
+    """Play-outs are many small forward passes; two threads per test process on two shared cores crawl."""
+    import torch
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(threads)
+
+
+def bound(path, **budget):
+    scenario = load_scenario(path)
+    policy = load_policy("generalist").for_scenario(scenario)
+    settings = load_baseline_settings().lookahead
+    return scenario, policy, Lookahead(policy, LookaheadBudget(**{**settings.__dict__, **budget}))
+
+
+def episode(scenario, team):
+    record = run_episode(make_env(scenario, "embedded", profile="ideal", mask="finished"), team, seed=0)
+    assert record.complete and record.logic_consistent
+    return record
+
+
+def test_each_robot_reads_the_state_from_its_own_row_and_the_episode_resumes_there():
+    scenario, policy, lookahead = bound(LAB / "lab_4r.xml")
+    env = make_env(scenario, "embedded", profile="ideal", mask="finished")
+    output = env.reset(seed=0)
+    hidden = policy.initial_hidden(env.n_agents)
+    joints = []
+    for _ in range(1):   # a step in (of two): robots on task nodes, tasks finished
+        actions, hidden = policy.act_team(output.obs, output.action_mask, hidden)
+        joints.append([int(a) for a in actions])
+        output = env.step(joints[-1])
+    assert any(output.info.finished) and not output.done
+    for robot in range(env.n_agents):
+        state = lookahead.state_of(output.obs[robot], robot)
+        assert state.nodes == env.executor._nodes
+        assert state.finished == list(output.info.finished)
+        assert state.elapsed == pytest.approx(output.info.elapsed, abs=1e-3)
+        assert state.step_index == 1
+    # The rest of the episode from the resumed state is the original's rest.
+    rest = []
+    while not (output.done or output.truncated):
+        actions, hidden = policy.act_team(output.obs, output.action_mask, hidden)
+        rest.append([int(a) for a in actions])
+        output = env.step(rest[-1])
+    resumed = make_env(scenario, "embedded", profile="ideal", mask="finished")
+    again = resumed.resume(state.nodes, state.finished, state.elapsed, state.step_index)
+    assert again.info.finished == state.finished
+    for joint in rest:
+        again = resumed.step(joint)
+    assert again.done and again.info.episode.logic_consistent
+    assert again.info.elapsed == pytest.approx(output.info.elapsed, abs=1e-3)
+
+
+def test_lookahead_reaches_lab_3r_optimum_the_actor_alone_misses():
+    scenario, policy, lookahead = bound(LAB / "lab_3r.xml")
+    task = load_task_settings()
+    optimum = solve_exact(scheduling_instance(scenario, task.min_step, task.goal_timeout))
+    assert optimum.proven_optimal
+    alone = episode(scenario, in_process_team(policy))
+    team = in_process_team(policy, lookahead)
+    looked = episode(scenario, team)
+    assert alone.makespan > optimum.makespan + 1.0           # 38.68 s against 37.10 s
+    assert looked.makespan == pytest.approx(optimum.makespan, abs=1e-6)
+    assert team.name == "lookahead"
+
+
+DATA = package_root() / "test" / "data" / "scenarios"
+UNSEEN = [DATA / name for name in ("join_2r4t.xml", "chains_3r6t.xml", "turned_3r5t.xml", "lab_2r4t.xml")]
+
+
+@pytest.mark.parametrize("path", UNSEEN, ids=lambda p: p.stem)
+def test_lookahead_is_never_longer_than_the_actors_own_episodes(path):
+    """Rollout's guarantee: the search at each step starts from the episode the last step's found,
+    so the team's episode is at most the shortest of the actor's own episodes (played as the
+    search plays them) under the orientations; on turned_3r5t far shorter: 37.16 s against 48.86 s."""
+    scenario, policy, lookahead = bound(path)
+    first = make_env(scenario, "embedded", profile="ideal", mask="finished").reset(seed=0)
+    alone = lookahead.episodes_alone(lookahead.state_of(first.obs[0], 0))
+    assert len(alone) == 8 and all(math.isfinite(m) for m in alone)
+    looked = episode(scenario, in_process_team(policy, lookahead)).makespan
+    assert looked <= min(alone) + 1e-6
+    if path.stem == "turned_3r5t":
+        assert looked < min(alone) - 10.0
+
+
+def test_alternatives_zero_and_one_orientation_is_the_actor_alone():
+    scenario, policy, lookahead = bound(LAB / "lab_3r.xml", alternatives=0, orientations=1)
+    alone = episode(scenario, in_process_team(policy))
+    assert episode(scenario, in_process_team(policy, lookahead)).makespan == pytest.approx(alone.makespan)
+
+
+def test_evaluate_method_lookahead(tmp_path, capsys):
+    out = tmp_path / "eval.json"
+    assert evaluate_main(["--method", "policy,lookahead", "--policy", "generalist", "--scenario",
+                          str(LAB / "lab_3r.xml"), "--episodes", "1", "--no-exact", "--quiet", "--out", str(out)]) == 0
+    results = {r["summary"]["method"]: r["summary"] for r in json.loads(out.read_text())["results"]}
+    assert results["lookahead"]["makespan_mean"] < results["policy"]["makespan_mean"] - 1.0
+    assert results["lookahead"]["logic_consistent_pct"] == 100.0
+
+
+def test_lookahead_needs_a_set_actor(tmp_path, capsys):
+    from marl_mrta.mappo.networks import Actor
+    from marl_mrta.mappo.policy import save_actor
+    lab_2r = str(LAB / "lab_2r.xml")
+    env = make_env(lab_2r)
+    mlp = tmp_path / "actor.pt"
+    save_actor(mlp, Actor(env.obs_dim, env.n_actions, 16), obs_dim=env.obs_dim, n_agents=env.n_agents,
+               append_agent_id=False, settings={}, scenario=lab_2r,
+               predecessors=env.scenario.predecessors)
+    code = evaluate_main(["--method", "lookahead", "--policy", str(mlp), "--scenario", lab_2r,
+                          "--episodes", "1", "--no-exact", "--quiet", "--out", str(tmp_path / "e.json")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "lookahead" in err[0] and "set actor" in err[0], err
+    assert not (tmp_path / "e.json").exists()
+
+
+def test_every_robot_finds_the_same_step_and_one_searches_again_around_a_robot_that_did_not():
+    """The robots search alike, so the second in turn answers its part of the first's joint action;
+    told that the first took that very task instead, it searches again with that choice fixed
+    and answers another (a lookahead that ignored the claims would send both to one task)."""
+    import numpy as np
+    from marl_mrta.evaluation.robot_actor import RobotActor
+    scenario, policy, lookahead = bound(LAB / "lab_3r.xml")
+    first = make_env(scenario, "embedded", profile="ideal", mask="finished").reset(seed=0)
+    order = [int(r) for r in policy.turns(first.obs)]
+    mask = first.action_mask.astype(np.uint8)
+    lead, second = order[0], order[1]
+    led = RobotActor(policy, lead, lookahead).decide(0, 0, True, first.obs[lead], mask[lead], lead)
+    claims = np.zeros(scenario.n_tasks, dtype=np.uint8)
+    if led.action < scenario.n_tasks:
+        claims[led.action] = lead + 1
+    follower = RobotActor(policy, second, lookahead)
+    planned = follower.decide(0, 0, True, first.obs[second], mask[second], second, claims.tobytes()).action
+    assert follower.looked.play_outs == 0          # the joint action the lead's search found, shared in-process
+    assert planned < scenario.n_tasks and planned != led.action
+    other = np.zeros(scenario.n_tasks, dtype=np.uint8)
+    other[planned] = lead + 1                      # the lead took the follower's planned task instead
+    again = RobotActor(policy, second, lookahead).decide(0, 0, True, first.obs[second], mask[second], second,
+                                                         other.tobytes())
+    assert again.action != planned
