@@ -166,3 +166,17 @@ def test_every_robot_finds_the_same_step_and_one_searches_again_around_a_robot_t
     again = RobotActor(policy, second, lookahead).decide(0, 0, True, first.obs[second], mask[second], second,
                                                          other.tobytes())
     assert again.action != planned
+
+
+def test_a_resumed_episode_refuses_a_state_that_does_not_fit_the_scenario():
+    env = make_env(LAB / "lab_2r.xml", "embedded", profile="ideal", mask="finished")
+    n_tasks = env.n_tasks
+    with pytest.raises(ValueError, match="one node of the table per robot"):
+        env.resume([0], [False] * n_tasks, 0.0, 0)
+    with pytest.raises(ValueError, match="one node of the table per robot"):
+        env.resume([0, 99], [False] * n_tasks, 0.0, 0)
+    with pytest.raises(ValueError, match="finished: 3 flags"):
+        env.resume([0, 1], [False] * 3, 0.0, 0)
+    out = env.resume([2, 1], [True] + [False] * (n_tasks - 1), 12.5, 1)   # robot 0 at task 0's goal
+    assert out.info.elapsed == 12.5 and out.info.finished[0] and not out.action_mask[0][0]
+    assert env.executor.poses()[0] == env.executor.table.node_poses[2]
