@@ -138,16 +138,14 @@ def plan_for(method: str, instance: SchedulingInstance, settings, seed: int) -> 
     raise ValueError(method)
 
 
-def lookahead_team(args: argparse.Namespace, env, settings):
-    """The robots' own actors deciding with lookahead (evaluation/lookahead.py), each from its
-    own observation row, answering in this process."""
+def lookahead_for(args: argparse.Namespace, env, settings) -> Lookahead:
+    """The lookahead of the robots' own actors (evaluation/lookahead.py) on the environment's scenario."""
     actor = LearnedPolicy.from_file(args.policy, env.n_agents, env.obs_dim, env.n_actions, seed=args.seed,
                                     scenario=env.scenario).actor
     try:
-        lookahead = Lookahead(actor, settings.lookahead, env.settings.hold_successors)
+        return Lookahead(actor, settings.lookahead, env.settings.hold_successors)
     except ValueError as error:
         raise PolicyLoadError(f"--method lookahead: {error}") from None
-    return in_process_team(actor, lookahead)
 
 
 def rollout_for(args: argparse.Namespace, scenario: Scenario, instance: SchedulingInstance, settings) -> Plan:
@@ -270,7 +268,8 @@ def evaluate(args: argparse.Namespace) -> int:
             policy = LearnedPolicy.from_file(args.policy, env.n_agents, env.obs_dim, env.n_actions, seed=args.seed,
                                              scenario=scenario)
         elif method == "lookahead":
-            policy = lookahead_team(args, env, settings)
+            lookahead = lookahead_for(args, env, settings)
+            policy = in_process_team(lookahead.policy, lookahead)
         else:
             policy = PlanPolicy(plan, env.n_agents, env.n_tasks)
         progress = None if args.quiet else ProgressLine(f"{method} on {scenario.name}")
@@ -279,6 +278,10 @@ def evaluate(args: argparse.Namespace) -> int:
         if stop_on_abort and records[-1].abort_reason:
             aborted = f"{method} episode {len(records) - 1} aborted: {records[-1].abort_reason}"
         seconds = time.monotonic() - started
+        if method == "lookahead":
+            decisions = max(1, sum(r.decision_steps for r in records) * env.n_agents)
+            print(f"  lookahead: {lookahead.searches} steps searched, {lookahead.play_outs} episodes "
+                  f"played out, {seconds / decisions:.2f} s per robot decision", file=sys.stderr)
         summary, report = method_report(method, records, [t.category for t in scenario.tasks],
                                         out.with_name(f"{out.stem}_{method}_gantt.png"),
                                         f"{method} · {scenario.name}", best, lower, basis)

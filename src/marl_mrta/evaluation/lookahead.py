@@ -91,6 +91,8 @@ class Lookahead:
         self.none = scenario.n_tasks
         self._searched: Dict[tuple, _StepPlan] = {}
         self._play_outs = 0
+        self.searches = 0               # steps searched, and play-outs in all, since it was made
+        self.play_outs = 0
 
     def state_of(self, row: np.ndarray, agent_index: int) -> ObservedState:
         """The state robot `agent_index` observes in its own row (env/observation.py's layout)."""
@@ -133,6 +135,7 @@ class Lookahead:
             if len(self._searched) > 64:   # one episode's steps at a time
                 self._searched.clear()
             self._searched[key] = self._searched_step(state, fixed)
+            self.searches += 1
         return self._searched[key]
 
     def _searched_step(self, state: ObservedState, fixed: Dict[int, int]) -> _StepPlan:
@@ -183,6 +186,7 @@ class Lookahead:
         fresh recurrent state, and without the last step's durations and arrival flag (a resumed
         episode has none). An episode played from a later step is then this one's rest."""
         self._play_outs += 1
+        self.play_outs += 1
         env, flat = self.env, self.view.flat
         output = env.resume(state.nodes, state.finished, state.elapsed, state.step_index)
         turns: List[Tuple[int, torch.Tensor, torch.Tensor, torch.Tensor]] = []

@@ -34,7 +34,8 @@ class Decision:
 
 class RobotActor:
     """A shared actor acting for robot `agent_index` only, with its own GRU hidden state;
-    with `lookahead`, each choice is the lookahead's from the actor's distribution."""
+    with `lookahead`, each choice is this robot's part of the team's step the lookahead searched
+    from this robot's observation."""
 
     def __init__(self, policy, agent_index: int, lookahead: Optional[Lookahead] = None):
         if not 0 <= agent_index < policy.n_agents:
@@ -43,7 +44,7 @@ class RobotActor:
         self.policy = policy
         self.agent_index = agent_index
         self.lookahead = lookahead
-        self.looked: Optional[LookaheadChoice] = None   # the last lookahead's candidates and scores
+        self.looked: Optional[LookaheadChoice] = None   # the last decision's lookahead
         self.hidden = policy.initial_hidden(1)
         self._last: Optional[Decision] = None
 

@@ -23,8 +23,8 @@ is run once per orientation (`orientations`, as test-time augmentation in POMO, 
 orientations share `max_rollouts`: those it leaves no play-out are not tried. An MLP actor has one.
 
 The result is a plan (joint actions), executed as the planners' are: on any executor and in ROS
-(evaluate --method rollout --policy P). The robots' own actor nodes (execute.launch) keep deciding
-from the actor alone.
+(evaluate --method rollout --policy P). The robots' own actor nodes (execute.launch) decide from
+the actor alone, or search each step the same way from what they observe (evaluation/lookahead.py).
 """
 from __future__ import annotations
 
