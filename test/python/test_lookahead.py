@@ -181,19 +181,3 @@ def test_a_resumed_episode_refuses_a_state_that_does_not_fit_the_scenario():
     out = env.resume([2, 1], [True] + [False] * (n_tasks - 1), 12.5, 1)   # robot 0 at task 0's goal
     assert out.info.elapsed == 12.5 and out.info.finished[0] and not out.action_mask[0][0]
     assert env.executor.poses()[0] == env.executor.table.node_poses[2]
-
-
-@pytest.mark.parametrize("key, value", [("alternatives", -1), ("orientations", 9), ("max_play_outs", 0),
-                                        ("max_play_outs", "many")])
-def test_a_bad_lookahead_budget_names_the_file_and_key(tmp_path, key, value):
-    import yaml
-    from marl_mrta.common.config import ConfigError
-    from marl_mrta.common.paths import default_config_path
-    data = yaml.safe_load(default_config_path("task_baselines.yaml").read_text())
-    data["lookahead"][key] = value
-    path = tmp_path / "task_baselines.yaml"
-    path.write_text(yaml.safe_dump(data))
-    with pytest.raises(ConfigError) as error:
-        load_baseline_settings(path)
-    assert str(path) in str(error.value) and f"lookahead.{key}" in str(error.value)
-    assert "\n" not in str(error.value)

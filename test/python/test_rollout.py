@@ -97,15 +97,19 @@ def test_rollout_without_an_actor_is_one_line(tmp_path, capsys):
     assert not (tmp_path / "e.json").exists()
 
 
-@pytest.mark.parametrize("key, value", [("alternatives", 0), ("max_rollouts", "many"), ("orientations", 9)])
-def test_a_bad_rollout_budget_names_the_file_and_key(tmp_path, key, value):
+@pytest.mark.parametrize("section, key, value", [
+    ("rollout", "alternatives", 0), ("rollout", "max_rollouts", "many"), ("rollout", "orientations", 9),
+    # the robots' own lookahead (evaluation/lookahead.py) searches a step the same way
+    ("lookahead", "alternatives", -1), ("lookahead", "orientations", 9), ("lookahead", "max_play_outs", 0),
+    ("lookahead", "max_play_outs", "many")])
+def test_a_bad_search_budget_names_the_file_and_key(tmp_path, section, key, value):
     data = yaml.safe_load(default_config_path("task_baselines.yaml").read_text())
-    data["rollout"][key] = value
+    data[section][key] = value
     path = tmp_path / "task_baselines.yaml"
     path.write_text(yaml.safe_dump(data))
     with pytest.raises(ConfigError) as error:
         load_baseline_settings(path)
-    assert str(path) in str(error.value) and f"rollout.{key}" in str(error.value)
+    assert str(path) in str(error.value) and f"{section}.{key}" in str(error.value)
     assert "\n" not in str(error.value)
 
 
