@@ -2,7 +2,8 @@
 actor out from the state in its own observation row before it answers. The state it reads is the
 environment's; an episode resumed there goes on as the original; the lookahead reaches lab_3r's
 optimum that the actor alone misses, is never longer than the actor's own episodes under any
-orientation, and runs through `evaluate --method lookahead`."""
+orientation, keeps the rollout plan it opens with until a search beats it, and runs through
+`evaluate --method lookahead`."""
 import json
 import math
 
@@ -100,19 +101,36 @@ UNSEEN = [DATA / name for name in ("join_2r4t.xml", "chains_3r6t.xml", "turned_3
 def test_lookahead_is_never_longer_than_the_actors_own_episodes(path):
     """Rollout's guarantee: the search at each step starts from the episode the last step's found,
     so the team's episode is at most the shortest of the actor's own episodes (played as the
-    search plays them) under the orientations; on turned_3r5t far shorter: 37.16 s against 48.86 s."""
+    search plays them) under the orientations; on turned_3r5t far shorter: 37.16 s against 48.86 s.
+    The episode kept from the opening rollout plan is given up only for a shorter one, so the
+    team's is at most the plan's too."""
     scenario, policy, lookahead = bound(path)
     first = make_env(scenario, "embedded", profile="ideal", mask="finished").reset(seed=0)
     alone = lookahead.episodes_alone(lookahead.state_of(first.obs[0], 0))
     assert len(alone) == 8 and all(math.isfinite(m) for m in alone)
     looked = episode(scenario, in_process_team(policy, lookahead)).makespan
     assert looked <= min(alone) + 1e-6
+    assert lookahead.opening is not None and looked <= lookahead.opening.usable_makespan + 1e-6
     if path.stem == "turned_3r5t":
         assert looked < min(alone) - 10.0
 
 
+def test_the_team_keeps_the_opening_rollout_plan_while_no_search_beats_it():
+    """On chains_3r6t the steps' searches alone end at 40.71 s; the rollout plan made at the
+    first step, 39.27 s, is kept to the end: no step's search finds a shorter episode."""
+    scenario, policy, searches_alone = bound(DATA / "chains_3r6t.xml", opening=None)
+    searched = episode(scenario, in_process_team(policy, searches_alone)).makespan
+    assert searches_alone.opening is None
+    _, _, lookahead = bound(DATA / "chains_3r6t.xml")
+    team = in_process_team(policy, lookahead)
+    opened = episode(scenario, team).makespan
+    assert lookahead.opening is not None and lookahead.opening_s > 0
+    assert opened == pytest.approx(lookahead.opening.usable_makespan, abs=1e-6)
+    assert opened < searched - 1.0
+
+
 def test_alternatives_zero_and_one_orientation_is_the_actor_alone():
-    scenario, policy, lookahead = bound(LAB / "lab_3r.xml", alternatives=0, orientations=1)
+    scenario, policy, lookahead = bound(LAB / "lab_3r.xml", alternatives=0, orientations=1, opening=None)
     alone = episode(scenario, in_process_team(policy))
     assert episode(scenario, in_process_team(policy, lookahead)).makespan == pytest.approx(alone.makespan)
 

@@ -101,7 +101,7 @@ def test_rollout_without_an_actor_is_one_line(tmp_path, capsys):
     ("rollout", "alternatives", 0), ("rollout", "max_rollouts", "many"), ("rollout", "orientations", 9),
     # the robots' own lookahead (evaluation/lookahead.py) searches a step the same way
     ("lookahead", "alternatives", -1), ("lookahead", "orientations", 9), ("lookahead", "max_play_outs", 0),
-    ("lookahead", "max_play_outs", "many")])
+    ("lookahead", "max_play_outs", "many"), ("lookahead", "opening", "yes")])
 def test_a_bad_search_budget_names_the_file_and_key(tmp_path, section, key, value):
     data = yaml.safe_load(default_config_path("task_baselines.yaml").read_text())
     data[section][key] = value

@@ -6,11 +6,12 @@ Test scenarios are drawn by model/generator.py from a seed no training run uses 
   limited to `--reference-seconds` per model); every ratio below is a makespan ÷ that bound;
 - zero-shot: the generalist's greedy episode (embedded, ideal), and its time per decision;
 - zero-shot with lookahead: the robots' own actors, each looking ahead before it answers
-  (evaluation/lookahead.py, config/task_baselines.yaml's budget), no training, and the wall time
-  of one robot's decision;
+  (evaluation/lookahead.py, config/task_baselines.yaml's budget, with the rollout plan below as
+  its opening), no training, and the wall time of one robot's decision, the opening's included;
 - zero-shot with rollout: the generalist's rollout plan (evaluation/rollout.py, the budget of
   config/task_baselines.yaml: the best of its eight orientations of the floor), no training
-  either, its planning time, and the rollout's plan on the floor as it is alone;
+  either, its planning time, and the rollout's plan on the floor as it is alone (the lookahead's
+  opening, when it has one with the same budget: the same plan, made once);
 - the GA's plan and its planning time;
 - on the first `--finetune` test scenarios and the lab ones: `train --init generalist` (preset
   finetune: one minute of wall time) and its best greedy episode;
@@ -64,14 +65,16 @@ from marl_mrta.model.scenario import Scenario, ScenarioError, load_scenario
 GOALS = {"zero_shot_mean": 1.10, "finetuned_mean": 1.03}
 
 
-def looking_ahead(policy: SetActorPolicy, scenario: Scenario, mask: str, budget) -> Dict[str, float]:
+def looking_ahead(policy: SetActorPolicy, scenario: Scenario, mask: str, budget) -> Dict[str, Any]:
     """The robots' own actors looking ahead, one episode (embedded, ideal): its makespan (inf:
-    not complete in precedence order) and the robots' decisions in it."""
+    not complete in precedence order), the robots' decisions in it, and the rollout plan they
+    made at its first step (None: the budget has no opening, or none was found) with its time."""
     bound = policy.for_scenario(scenario)
-    record = run_episode(make_env(scenario, "embedded", mask=mask), in_process_team(bound, Lookahead(bound, budget)),
-                         seed=0)
+    lookahead = Lookahead(bound, budget)
+    record = run_episode(make_env(scenario, "embedded", mask=mask), in_process_team(bound, lookahead), seed=0)
     return {"makespan": record.makespan if record.complete and record.logic_consistent else math.inf,
-            "decisions": max(1, record.decision_steps * scenario.n_robots)}
+            "decisions": max(1, record.decision_steps * scenario.n_robots),
+            "opening": lookahead.opening, "opening_s": lookahead.opening_s}
 
 
 def trained(scenario: Scenario, preset: str, seconds: float, seed: int, init: str, work: Path) -> Dict[str, float]:
@@ -155,9 +158,12 @@ def bench(args: argparse.Namespace, log: Callable[[str], None] = print) -> Dict[
             started = time.perf_counter()
             looked = looking_ahead(policy, scenario, mask, settings.lookahead)
             lookahead_s = time.perf_counter() - started
-            started = time.perf_counter()
-            rolled = rollout_plan(policy, scenario, instance, settings.rollout, mask)
-            rollout_s = time.perf_counter() - started
+            # The lookahead's opening is the rollout plan (the same budget): made once, timed in both.
+            rolled, rollout_s = looked["opening"], looked["opening_s"]
+            if rolled is None or settings.lookahead.opening != settings.rollout:
+                started = time.perf_counter()
+                rolled = rollout_plan(policy, scenario, instance, settings.rollout, mask)
+                rollout_s = time.perf_counter() - started
             row: Dict[str, Any] = {
                 "scenario": scenario.name if lab else f"test_{k - len(labs):03d}", "lab": lab,
                 "robots": scenario.n_robots, "tasks": scenario.n_tasks, "best": reference.best_makespan,

@@ -280,8 +280,12 @@ def evaluate(args: argparse.Namespace) -> int:
         seconds = time.monotonic() - started
         if method == "lookahead":
             decisions = max(1, sum(r.decision_steps for r in records) * env.n_agents)
+            opening = lookahead.opening
+            opened = "" if lookahead.budget.opening is None else (
+                "; no rollout plan to open with" if opening is None else
+                f"; opened with the rollout plan, {opening.usable_makespan:.2f} s, made in {lookahead.opening_s:.1f} s")
             print(f"  lookahead: {lookahead.searches} steps searched, {lookahead.play_outs} episodes "
-                  f"played out, {seconds / decisions:.2f} s per robot decision", file=sys.stderr)
+                  f"played out, {seconds / decisions:.2f} s per robot decision{opened}", file=sys.stderr)
         summary, report = method_report(method, records, [t.category for t in scenario.tasks],
                                         out.with_name(f"{out.stem}_{method}_gantt.png"),
                                         f"{method} · {scenario.name}", best, lower, basis)

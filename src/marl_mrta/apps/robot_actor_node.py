@@ -4,12 +4,15 @@ Started in the robot's namespace (launch/execute.launch). Parameters: ~policy (a
 ~agent_index (this robot's index in the scenario's robot order), ~scenario (the scenario file:
 a set actor reads its observation with the scenario's tasks and nominal travel times, which
 every robot knows), ~lookahead (true: each choice looks ahead, evaluation/lookahead.py; a set actor
-only; its budget in config/task_baselines.yaml), ~hold_successors (the task manager's rule, which the
+only; its budget in config/task_baselines.yaml, whose opening rollout plan the node makes at
+start, in the background), ~hold_successors (the task manager's rule, which the
 lookahead's model of the episode follows; empty: config/task.yaml's). Subscribes only to this robot's task_observation (marl_mrta/RobotObservation) and publishes its choice on task_choice
 (marl_mrta/TaskChoice); its GRU state is its own, reset at each episode_start. Sets
 ~action_mask, ~decision_order and ~turn_order to those its policy was trained with (rl_manager
 checks them; a sequential policy is asked in turn, with the tasks claimed before it in `claimed`).
 """
+
+import threading
 
 import rospy
 import torch
@@ -66,15 +69,25 @@ def main() -> int:
             return
         choices.publish(TaskChoice(episode=decision.episode, step=decision.step, action=decision.action))
         looked = actor.looked
+        if looked is not None and not decision.repeated and msg.step == 0 and lookahead.budget.opening is not None:
+            opening = lookahead.opening
+            rospy.loginfo("%s: episode %d: %s", name, msg.episode, "no rollout plan to open with: the searches alone"
+                          if opening is None else "the rollout plan to open with ends at %.2f s (made in %.1f s)"
+                          % (opening.usable_makespan, lookahead.opening_s))
         if looked is not None and not decision.repeated and looked.action != looked.own:
-            rospy.loginfo("%s: episode %d step %d: %s instead of the actor's %s (the team's episode found ends at "
-                          "%.2f s, orientation %d; %d play-outs)", name, msg.episode, msg.step, task_name(looked.action),
-                          task_name(looked.own), looked.makespan, looked.orientation, looked.play_outs)
+            found = "kept" if looked.orientation < 0 else "found (orientation %d)" % looked.orientation
+            rospy.loginfo("%s: episode %d step %d: %s instead of the actor's %s (the team's episode %s ends at "
+                          "%.2f s; %d play-outs)", name, msg.episode, msg.step, task_name(looked.action),
+                          task_name(looked.own), found, looked.makespan, looked.play_outs)
 
     rospy.Subscriber("task_observation", RobotObservation, on_observation, queue_size=10)
+    if lookahead is not None:   # the opening plan, made while the task manager starts (the first step waits for it)
+        threading.Thread(target=lookahead.prepare, name="opening", daemon=True).start()
     rospy.loginfo("%s: robot %d acting with %s%s", name, actor.agent_index, actor_file_path(rospy.get_param("~policy")),
                   "" if lookahead is None else ", looking ahead over %d orientation(s), %d other actions per turn, "
-                  "up to %d play-outs a step" % (len(lookahead.actors), 2 * lookahead.budget.alternatives,
-                                                 lookahead.budget.max_play_outs))
+                  "up to %d play-outs a step%s" % (len(lookahead.actors), 2 * lookahead.budget.alternatives,
+                                                   lookahead.budget.max_play_outs,
+                                                   "" if lookahead.budget.opening is None else
+                                                   ", opening with the actor's rollout plan"))
     rospy.spin()
     return 0

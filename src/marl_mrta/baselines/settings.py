@@ -39,6 +39,7 @@ class LookaheadBudget:
     alternatives: int = 3          # at each turn: the actor's most likely other actions, and as many held-back nearest tasks
     orientations: int = 8          # the floor as it is, then turned and mirrored: a search each
     max_play_outs: int = 500       # per step and robot, over all orientations; then the best found is taken
+    opening: Optional[RolloutBudget] = None   # the rollout plan made at the first step, kept while no search beats it
 
 
 @dataclass(frozen=True)
@@ -94,6 +95,9 @@ def load_baseline_settings(path: Optional[Union[str, Path]] = None) -> BaselineS
     cpsat = root.section("cpsat")
     rollout = root.section("rollout")
     lookahead = root.section("lookahead")
+    rollout_budget = RolloutBudget(alternatives=rollout.integer("alternatives", minimum=1),
+                                   max_rollouts=rollout.integer("max_rollouts", minimum=1),
+                                   orientations=rollout.integer("orientations", minimum=1, maximum=8))
     budget = CpSatBudget(time_limit=cpsat.number("time_limit", above=0.0), workers=cpsat.integer("workers", minimum=1),
                          seed=cpsat.integer("seed", minimum=0), memory_mb=cpsat.number("memory_mb", above=0.0))
     settings = BaselineSettings(
@@ -105,12 +109,11 @@ def load_baseline_settings(path: Optional[Union[str, Path]] = None) -> BaselineS
         astar_max_tasks=exact.integer("astar_max_tasks", minimum=1, maximum=60),
         cpsat=budget,
         precedence_margin=root.number("precedence_margin", minimum=0.0),
-        rollout=RolloutBudget(alternatives=rollout.integer("alternatives", minimum=1),
-                              max_rollouts=rollout.integer("max_rollouts", minimum=1),
-                              orientations=rollout.integer("orientations", minimum=1, maximum=8)),
+        rollout=rollout_budget,
         lookahead=LookaheadBudget(alternatives=lookahead.integer("alternatives", minimum=0),
                                   orientations=lookahead.integer("orientations", minimum=1, maximum=8),
-                                  max_play_outs=lookahead.integer("max_play_outs", minimum=1)),
+                                  max_play_outs=lookahead.integer("max_play_outs", minimum=1),
+                                  opening=rollout_budget if lookahead.boolean("opening") else None),
     )
     root.check_all_used()
     return settings

@@ -24,20 +24,31 @@ the search at the next step starts from the episode found at this one, and the t
 is never longer than the actor's own from any state (the rollout's cost improvement, Bertsekas
 2013). The price is compute: at most `max_play_outs` play-outs per step and robot
 (config/task_baselines.yaml, lookahead).
+
+With `opening` (the default), every robot also makes the actor's rollout plan at the episode's
+first step (evaluation/rollout.py: deterministic, so the same plan for all), and the team goes
+by the episode it keeps, the plan's rest played from the state observed, while no step's search
+finds one strictly shorter (the fortified rollout of Bertsekas 2013). The rollout plan's search replays whole
+episodes, the steps' searches resume them: the two find different episodes, and the team keeps the
+better at every step, so on the ideal model its episode is never longer than the rollout plan.
 """
 from __future__ import annotations
 
 import math
+import threading
+import time
 from dataclasses import dataclass
-from typing import Dict, List, Optional, Tuple
+from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 import torch
 
+from marl_mrta.baselines.plan import Plan
+from marl_mrta.baselines.reference import scheduling_instance
 from marl_mrta.baselines.settings import LookaheadBudget
 from marl_mrta.env.factory import make_env
 from marl_mrta.evaluation.loop import MAX_STEPS
-from marl_mrta.evaluation.rollout import other_actions
+from marl_mrta.evaluation.rollout import RolloutError, other_actions, rollout_plan
 from marl_mrta.mappo.policy import SetActorPolicy
 
 
@@ -55,23 +66,27 @@ class LookaheadChoice:
     action: int                 # the action taken (n_tasks: None)
     own: int                    # the actor's own choice
     makespan: float             # of the team's episode the search found (inf: none complete in order)
-    orientation: int            # whose play-out it was
+    orientation: int            # whose play-out it was (-1: the episode kept, the opening plan's rest)
     play_outs: int              # played for this decision (0: the step's search was done already)
 
 
 @dataclass
 class _PlayOut:
     makespan: float                             # inf: not complete in precedence order, or cut off
-    joint: List[int]                            # the step's joint action (n_tasks: None)
+    joints: List[List[int]]                     # the episode's joint actions from the state (n_tasks: None)
     turns: List[Tuple[int, torch.Tensor, torch.Tensor, torch.Tensor]]   # (robot, logits, mask, claimed) in turn order
 
 
 @dataclass(frozen=True)
 class _StepPlan:
     makespan: float
-    joint: List[int]
+    joints: List[List[int]]     # the episode found, from this step: joints[0] is the step's joint action
     order: List[int]            # the robots in turn order
-    orientation: int
+    orientation: int            # -1: the episode kept from an earlier step (the opening plan's rest)
+
+    @property
+    def joint(self) -> List[int]:
+        return self.joints[0]
 
 
 class Lookahead:
@@ -90,6 +105,11 @@ class Lookahead:
         self.actors = [policy.turned(k) for k in range(min(budget.orientations, policy.orientations))]
         self.none = scenario.n_tasks
         self._searched: Dict[tuple, _StepPlan] = {}
+        self._kept: Dict[int, List[List[int]]] = {}     # by step index: the rest of the episode the team goes by
+        self.opening: Optional[Plan] = None     # the rollout plan of the first step (None: not made, or none found)
+        self.opening_s = 0.0                    # s it took
+        self._opened = False
+        self._opening_lock = threading.Lock()   # a node makes it in the background (prepare)
         self._play_outs = 0
         self.searches = 0               # steps searched, and play-outs in all, since it was made
         self.play_outs = 0
@@ -109,7 +129,7 @@ class Lookahead:
         this turn (n_actions,: the actor's own choice, for the record), and the tasks claimed
         before it (n_tasks,: k + 1 = robot k's; None: none)."""
         own = int(torch.argmax(torch.where(mask, logits, torch.full_like(logits, -math.inf))))
-        if self.budget.alternatives == 0 and len(self.actors) == 1:
+        if self.budget.alternatives == 0 and len(self.actors) == 1 and self.budget.opening is None:
             return LookaheadChoice(own, own, math.inf, 0, 0)
         state = self.state_of(row, agent_index)
         claimers = np.zeros(self.none, dtype=np.int64) if claimed is None else np.asarray(claimed).reshape(-1)
@@ -120,6 +140,7 @@ class Lookahead:
         fixed = {robot: took.get(robot, self.none) for robot in before}
         if any(plan.joint[robot] != action for robot, action in fixed.items()):
             plan = self._search(state, fixed)   # a robot before this one decided otherwise: search around it
+        self._kept = {state.step_index: self._kept.get(state.step_index, []), state.step_index + 1: plan.joints[1:]}
         return LookaheadChoice(plan.joint[agent_index], own, plan.makespan, plan.orientation, self._play_outs)
 
     def episodes_alone(self, state: ObservedState) -> List[float]:
@@ -143,6 +164,7 @@ class Lookahead:
         # the episode the last step's search found goes on as one of them, so the budget cannot
         # leave it out.
         incumbents = [self._play(actor, state, fixed) for actor in self.actors]
+        kept = self._kept_plan(state, fixed, [t[0] for t in incumbents[0].turns])
         budget = self.budget.max_play_outs - len(incumbents)
         best: Optional[_StepPlan] = None
         for k in sorted(range(len(self.actors)), key=lambda k: (incumbents[k].makespan, k)):
@@ -169,18 +191,64 @@ class Lookahead:
                 step = chosen
                 incumbent = self._play(actor, state, step)
                 budget -= 1
-            found = _StepPlan(incumbent.makespan, incumbent.joint, [t[0] for t in incumbent.turns], k)
+            found = _StepPlan(incumbent.makespan, incumbent.joints, [t[0] for t in incumbent.turns], k)
             if best is None or found.makespan < best.makespan - 1e-9:
                 best = found
         assert best is not None
-        return best
+        # The episode kept goes on unless the search found one strictly shorter (fortified rollout).
+        return kept if kept is not None and kept.makespan <= best.makespan + 1e-9 else best
+
+    def _kept_plan(self, state: ObservedState, fixed: Dict[int, int], order: List[int]) -> Optional[_StepPlan]:
+        """The rest of the episode the team goes by (the opening plan at the first step, then what
+        each step chose), played from `state` with the robots in `fixed` holding their actions:
+        None when there is none."""
+        if state.step_index == 0 and not state.elapsed and not any(state.finished):
+            self._kept = {0: self._opening_plan()}
+        joints = self._kept.get(state.step_index)
+        if not joints:
+            return None
+        first = [fixed.get(robot, action) for robot, action in enumerate(joints[0])]
+        played = self._play(self.actors[0], state, {}, script=[first] + joints[1:])
+        if not math.isfinite(played.makespan):
+            return None
+        return _StepPlan(played.makespan, played.joints, order, -1)
+
+    def prepare(self) -> None:
+        """Makes the opening plan now, if the budget has one: a robot's node does it at start, in
+        the background, so that the first step does not wait for it (or waits less)."""
+        self._opening_plan()
+
+    def _opening_plan(self) -> List[List[int]]:
+        """The shared actor's rollout plan from the episode's start (evaluation/rollout.py, the
+        budget's `opening`; made once), as joint actions: [] without one."""
+        if self.budget.opening is None:
+            return []
+        with self._opening_lock:
+            self._make_opening()
+        if self.opening is None:
+            return []
+        return [[self.none if a is None else int(a) for a in joint] for joint in self.opening.joint_actions]
+
+    def _make_opening(self) -> None:
+        if not self._opened:
+            self._opened, started = True, time.perf_counter()
+            settings = self.env.settings
+            instance = scheduling_instance(self.view.scenario, settings.min_step, settings.goal_timeout,
+                                           hold_successors=settings.hold_successors)
+            try:
+                self.opening = rollout_plan(self.policy, self.view.scenario, instance, self.budget.opening,
+                                            self.policy.action_mask)
+            except RolloutError:   # no complete plan in order: the steps' searches alone
+                self.opening = None
+            self.opening_s = time.perf_counter() - started
 
     def _play(self, actor: SetActorPolicy, state: ObservedState, step: Dict[int, int],
-              cutoff: float = math.inf) -> _PlayOut:
+              cutoff: float = math.inf, script: Sequence[Sequence[int]] = ()) -> _PlayOut:
         """The episode from `state` with the robots in `step` taking those actions in its first
-        step and `actor` deciding everything else: its makespan (inf: not complete in precedence
-        order, or not shorter than `cutoff`, where it is given up: an actor that idles can take many
-        steps to its timeout), the first step's joint action and its turns.
+        step (or the joint actions of `script` at its first steps) and `actor` deciding everything
+        else: its makespan (inf: not complete in precedence order, or not shorter than `cutoff`,
+        where it is given up: an actor that idles can take many steps to its timeout), its joint
+        actions and the first step's turns.
 
         The actor plays every step as it would the first step of an episode resumed there: from a
         fresh recurrent state, and without the last step's durations and arrival flag (a resumed
@@ -196,20 +264,23 @@ class Lookahead:
             turns.append((robot, logits, mask, claimed))
             return step.get(robot)
 
-        joint: List[int] = []
+        joints: List[List[int]] = []
         for index in range(MAX_STEPS):
-            obs = output.obs.copy()
-            obs[:, flat.at_durations:flat.at_durations + 2] = 0.0
-            obs[:, flat.at_reached] = 0.0
-            actions, _ = actor.act_team(obs, output.action_mask, actor.initial_hidden(env.n_agents),
-                                        pick=first_step if index == 0 else None)
-            actions = [int(a) for a in np.asarray(actions).reshape(-1)]
-            joint = joint or actions
+            if index < len(script):
+                actions = [int(a) for a in script[index]]
+            else:
+                obs = output.obs.copy()
+                obs[:, flat.at_durations:flat.at_durations + 2] = 0.0
+                obs[:, flat.at_reached] = 0.0
+                chosen, _ = actor.act_team(obs, output.action_mask, actor.initial_hidden(env.n_agents),
+                                           pick=first_step if index == 0 else None)
+                actions = [int(a) for a in np.asarray(chosen).reshape(-1)]
+            joints.append(actions)
             output = env.step(actions)
             if output.done or output.truncated:
                 record = output.info.episode
                 made = record.makespan if record.complete and record.logic_consistent else math.inf
-                return _PlayOut(made, joint, turns)
+                return _PlayOut(made, joints, turns)
             if output.info.elapsed >= cutoff:
-                return _PlayOut(math.inf, joint, turns)
+                return _PlayOut(math.inf, joints, turns)
         raise RuntimeError(f"a play-out did not end within {MAX_STEPS} steps")
