@@ -2,7 +2,8 @@
 actor out from the state in its own observation row before it answers. The state it reads is the
 environment's; an episode resumed there goes on as the original; the lookahead reaches lab_3r's
 optimum that the actor alone misses, is never longer than the actor's own episodes under any
-orientation, keeps the rollout plan it opens with until a search beats it, and runs through
+orientation, keeps the rollout plan it opens with until a search beats it, keeps a precedence
+margin when given one, and runs through
 `evaluate --method lookahead`."""
 import json
 import math
@@ -129,6 +130,29 @@ def test_the_team_keeps_the_opening_rollout_plan_while_no_search_beats_it():
     assert opened < searched - 1.0
 
 
+def test_with_a_precedence_margin_the_team_keeps_only_episodes_that_leave_it():
+    """lab_4r's optimum under the step rules, 25.99 s, reaches a successor 0.23 s after its
+    predecessor's finish: legs that run late (stock navigation) break its order. With a margin of
+    1 s the robots' episode leaves at least that, at the margin's proven optimum (31.03 s)."""
+    from marl_mrta.baselines.plan import simulate_joint_actions
+    scenario = load_scenario(LAB / "lab_4r.xml")
+    policy = load_policy("generalist").for_scenario(scenario)
+    task = load_task_settings()
+    budget = load_baseline_settings().lookahead
+    thinnest = {}
+    for margin in (0.0, 1.0):
+        lookahead = Lookahead(policy, budget, None, margin)
+        record = episode(scenario, in_process_team(policy, lookahead))
+        instance = scheduling_instance(scenario, task.min_step, task.goal_timeout, margin)
+        run = simulate_joint_actions(instance, record.joint_actions)
+        assert run.complete and run.elapsed == pytest.approx(record.makespan, abs=1e-6)
+        thinnest[margin] = run.thinnest_margin
+        if margin:
+            assert run.violations == 0 and "keeping a precedence margin of 1 s" in lookahead.describe()
+            assert record.makespan == pytest.approx(solve_exact(instance).makespan, abs=1e-6)
+    assert thinnest[0.0] < 1.0 <= thinnest[1.0]
+
+
 def test_alternatives_zero_and_one_orientation_is_the_actor_alone():
     scenario, policy, lookahead = bound(LAB / "lab_3r.xml", alternatives=0, orientations=1, opening=None)
     alone = episode(scenario, in_process_team(policy))
@@ -199,3 +223,13 @@ def test_a_resumed_episode_refuses_a_state_that_does_not_fit_the_scenario():
     out = env.resume([2, 1], [True] + [False] * (n_tasks - 1), 12.5, 1)   # robot 0 at task 0's goal
     assert out.info.elapsed == 12.5 and out.info.finished[0] and not out.action_mask[0][0]
     assert env.executor.poses()[0] == env.executor.table.node_poses[2]
+
+
+@pytest.mark.parametrize("value", ["soon", -1.0, "nan", "inf"])
+def test_a_bad_precedence_margin_of_an_actor_node_is_one_line(value):
+    from marl_mrta.apps.robot_actor_node import precedence_margin
+    with pytest.raises(ValueError) as error:
+        precedence_margin("/tb3_0/robot_actor", value, 0.0)
+    assert "/tb3_0/robot_actor/precedence_margin" in str(error.value) and "\n" not in str(error.value)
+    assert precedence_margin("/tb3_0/robot_actor", "", 0.25) == 0.25     # empty: config/task_baselines.yaml's
+    assert precedence_margin("/tb3_0/robot_actor", 1, 0.0) == 1.0

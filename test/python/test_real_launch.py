@@ -69,7 +69,8 @@ def params_of(launch_file, *args):
 
 def test_lookahead_reaches_every_actor_node_with_the_managers_hold_and_a_longer_choice_wait():
     """real.launch lookahead:=true: each robot's actor looks ahead under the rule the task manager
-    runs (real robots hold a successor reached early); execute.launch and evaluate.launch too."""
+    runs (real robots hold a successor reached early) and the plans' precedence margin;
+    execute.launch and evaluate.launch too."""
     params = params_of("real.launch", "method:=policy", "policy:=generalist", "lookahead:=true")
     for robot in ("tb3_0", "tb3_1"):
         assert params[f"/{robot}/robot_actor/lookahead"].value is True
@@ -83,6 +84,12 @@ def test_lookahead_reaches_every_actor_node_with_the_managers_hold_and_a_longer_
     params = params_of("evaluate.launch", "method:=lookahead", "policy:=generalist", "scenario:=" + lab_3r)
     assert [params[f"/tb3_{i}/robot_actor/lookahead"].value for i in range(3)] == [True] * 3
     assert params["/rl_task_allocation_manager/mask"].value == "finished"
+    # the precedence margin of the plans reaches every robot's lookahead too
+    params = params_of("evaluate.launch", "method:=lookahead", "policy:=generalist", "scenario:=" + lab_3r,
+                       "precedence_margin:=1.0")
+    assert [params[f"/tb3_{i}/robot_actor/precedence_margin"].value for i in range(3)] == [1.0] * 3
+    params = params_of("real.launch", "method:=policy", "policy:=generalist", "lookahead:=true", "precedence_margin:=0.5")
+    assert [params[f"/tb3_{i}/robot_actor/precedence_margin"].value for i in range(2)] == [0.5] * 2
 
 
 @pytest.mark.parametrize("method", ["rollout", "policy", "exact,rollout"])

@@ -87,8 +87,8 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> argparse.Namespace:
                         help="CP-SAT search workers (default: config/task_baselines.yaml; more than one may return "
                              "another plan of the same optimum)")
     parser.add_argument("--precedence-margin", type=float, default=None,
-                        help="s every plan leaves between a predecessor's finish and its successor's arrival in one "
-                             "step (default: config/task_baselines.yaml)")
+                        help="s every plan, and every episode the lookahead keeps, leaves between a predecessor's "
+                             "finish and its successor's arrival in one step (default: config/task_baselines.yaml)")
     parser.add_argument("--quiet", action="store_true", help="no progress line")
     # roslaunch appends remappings (__name:=..., __log:=...) to a node's command line.
     args = parser.parse_args([a for a in (sys.argv[1:] if argv is None else argv) if ":=" not in a])
@@ -138,12 +138,13 @@ def plan_for(method: str, instance: SchedulingInstance, settings, seed: int) -> 
     raise ValueError(method)
 
 
-def lookahead_for(args: argparse.Namespace, env, settings) -> Lookahead:
-    """The lookahead of the robots' own actors (evaluation/lookahead.py) on the environment's scenario."""
+def lookahead_for(args: argparse.Namespace, env, settings, margin: float) -> Lookahead:
+    """The lookahead of the robots' own actors (evaluation/lookahead.py) on the environment's
+    scenario, its episodes keeping the precedence margin of the plans."""
     actor = LearnedPolicy.from_file(args.policy, env.n_agents, env.obs_dim, env.n_actions, seed=args.seed,
                                     scenario=env.scenario).actor
     try:
-        return Lookahead(actor, settings.lookahead, env.settings.hold_successors)
+        return Lookahead(actor, settings.lookahead, env.settings.hold_successors, margin)
     except ValueError as error:
         raise PolicyLoadError(f"--method lookahead: {error}") from None
 
@@ -268,7 +269,7 @@ def evaluate(args: argparse.Namespace) -> int:
             policy = LearnedPolicy.from_file(args.policy, env.n_agents, env.obs_dim, env.n_actions, seed=args.seed,
                                              scenario=scenario)
         elif method == "lookahead":
-            lookahead = lookahead_for(args, env, settings)
+            lookahead = lookahead_for(args, env, settings, margin)
             policy = in_process_team(lookahead.policy, lookahead)
         else:
             policy = PlanPolicy(plan, env.n_agents, env.n_tasks)

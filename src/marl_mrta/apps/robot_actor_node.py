@@ -6,12 +6,15 @@ a set actor reads its observation with the scenario's tasks and nominal travel t
 every robot knows), ~lookahead (true: each choice looks ahead, evaluation/lookahead.py; a set actor
 only; its budget in config/task_baselines.yaml, whose opening rollout plan the node makes at
 start, in the background), ~hold_successors (the task manager's rule, which the
-lookahead's model of the episode follows; empty: config/task.yaml's). Subscribes only to this robot's task_observation (marl_mrta/RobotObservation) and publishes its choice on task_choice
+lookahead's model of the episode follows; empty: config/task.yaml's), ~precedence_margin (s the
+episodes the lookahead keeps leave between a predecessor's finish and its successor's arrival in
+one step; empty: config/task_baselines.yaml's). Subscribes only to this robot's task_observation (marl_mrta/RobotObservation) and publishes its choice on task_choice
 (marl_mrta/TaskChoice); its GRU state is its own, reset at each episode_start. Sets
 ~action_mask, ~decision_order and ~turn_order to those its policy was trained with (rl_manager
 checks them; a sequential policy is asked in turn, with the tasks claimed before it in `claimed`).
 """
 
+import math
 import threading
 
 import rospy
@@ -24,6 +27,19 @@ from marl_mrta.mappo.policy import PolicyFileError, SetActorPolicy, actor_file_p
 from marl_mrta.model.scenario import ScenarioError, load_scenario
 from marl_mrta.msg import RobotObservation, TaskChoice
 from marl_mrta.evaluation.robot_actor import ObservationError, RobotActor
+
+
+def precedence_margin(name: str, value, default: float) -> float:
+    """~precedence_margin: s, finite and >= 0; empty: config/task_baselines.yaml's."""
+    if str(value).strip() == "":
+        return default
+    try:
+        margin = float(value)
+    except (TypeError, ValueError):
+        margin = math.nan
+    if not (math.isfinite(margin) and margin >= 0.0):
+        raise ValueError(f"{name}/precedence_margin: {value!r}: give seconds >= 0, or nothing")
+    return margin
 
 
 def main() -> int:
@@ -45,7 +61,9 @@ def main() -> int:
             hold = str(rospy.get_param("~hold_successors", "")).strip().lower()
             if hold not in ("", "true", "false"):
                 raise ValueError(f"{name}/hold_successors: {hold!r}: give true, false or nothing")
-            lookahead = Lookahead(policy, load_baseline_settings().lookahead, None if not hold else hold == "true")
+            settings = load_baseline_settings()
+            margin = precedence_margin(name, rospy.get_param("~precedence_margin", ""), settings.precedence_margin)
+            lookahead = Lookahead(policy, settings.lookahead, None if not hold else hold == "true", margin)
         actor = RobotActor(policy, int(rospy.get_param("~agent_index")), lookahead)
     except (PolicyFileError, ObservationError, ScenarioError, ConfigError, ValueError) as error:
         rospy.logfatal("%s: %s", name, error)
@@ -84,10 +102,6 @@ def main() -> int:
     if lookahead is not None:   # the opening plan, made while the task manager starts (the first step waits for it)
         threading.Thread(target=lookahead.prepare, name="opening", daemon=True).start()
     rospy.loginfo("%s: robot %d acting with %s%s", name, actor.agent_index, actor_file_path(rospy.get_param("~policy")),
-                  "" if lookahead is None else ", looking ahead over %d orientation(s), %d other actions per turn, "
-                  "up to %d play-outs a step%s" % (len(lookahead.actors), 2 * lookahead.budget.alternatives,
-                                                   lookahead.budget.max_play_outs,
-                                                   "" if lookahead.budget.opening is None else
-                                                   ", opening with the actor's rollout plan"))
+                  "" if lookahead is None else ", " + lookahead.describe())
     rospy.spin()
     return 0

@@ -27,13 +27,14 @@ def make_env(scenario: Union[str, Path, Scenario], executor: Union[str, Executor
              profile: Optional[str] = None, mask: Optional[str] = None, seed: Optional[int] = None,
              reward_config: Optional[Union[str, Path]] = None, task_config: Optional[Union[str, Path]] = None,
              embedded_config: Optional[Union[str, Path]] = None,
-             hold_successors: Optional[bool] = None) -> TaskEnvironment:
+             hold_successors: Optional[bool] = None, precedence_margin: float = 0.0) -> TaskEnvironment:
     """An environment on `scenario` (file or loaded Scenario).
 
     executor: "embedded", or an Executor object (e.g. the ROS executor) that moves the robots;
     profile: a noise profile of config/noise_profiles.yaml (default: its `profile`; embedded
     only); mask: none | finished | logic (default: config/task.yaml); hold_successors: the rule
-    of model/rules.py (default: config/task.yaml); seed: of the first
+    of model/rules.py (default: config/task.yaml); precedence_margin: s a successor must be
+    reached after its predecessor's finish to count as in order (a model planning with a margin); seed: of the first
     reset() without a seed. Raises ScenarioError or ConfigError with a one-line message.
     """
     if not isinstance(scenario, Scenario):
@@ -47,6 +48,8 @@ def make_env(scenario: Union[str, Path, Scenario], executor: Union[str, Executor
         settings = replace(settings, mask=mask)
     if hold_successors is not None:
         settings = replace(settings, hold_successors=hold_successors)
+    if precedence_margin:
+        settings = replace(settings, precedence_margin=float(precedence_margin))
     try:
         reward = RewardConfig.load(scenario.nav_thresholds, reward_config, scenario.reward_overrides)
     except ConfigError as error:

@@ -21,6 +21,9 @@ class TaskSettings:
     min_step: float      # s, shortest step (the whole step when every robot chose None)
     goal_timeout: float  # s, per goal
     hold_successors: bool = False   # a robot early at a successor waits for its predecessors (model/rules.py)
+    # s a successor must be reached after its predecessor's finish in one step to count as in
+    # order (model/rules.py's order_margin); not in task.yaml: a model that plans with a margin sets it
+    precedence_margin: float = 0.0
 
 
 def load_task_settings(path: Optional[Union[str, Path]] = None) -> TaskSettings:

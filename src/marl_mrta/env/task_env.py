@@ -120,6 +120,7 @@ class TaskEnvironment:
         resolution = resolve_step(goals, [r.nav_time for r in robots], [r.reached for r in robots],
                                   [r.collisions for r in robots], finished, self._predecessors,
                                   self._service, time_limit, self.settings.min_step,
+                                  order_margin=self.settings.precedence_margin,
                                   hold_successors=self.settings.hold_successors)
         duration = resolution.duration
         executor.finish_step(duration)

@@ -31,6 +31,11 @@ by the episode it keeps, the plan's rest played from the state observed, while n
 finds one strictly shorter (the fortified rollout of Bertsekas 2013). The rollout plan's search replays whole
 episodes, the steps' searches resume them: the two find different episodes, and the team keeps the
 better at every step, so on the ideal model its episode is never longer than the rollout plan.
+
+With a precedence margin (evaluate --precedence-margin, the launch files' precedence_margin), a
+successor reached within the margin of its predecessor's finish counts as out of order on the
+model, so the team keeps only episodes that leave it: where legs run late (stock navigation,
+real robots without the hold) an episode found on the ideal model keeps its order.
 """
 from __future__ import annotations
 
@@ -93,15 +98,18 @@ class Lookahead:
     """Decisions with lookahead for the robots of one scenario, with a set actor bound to it
     (SetActorPolicy.for_scenario). Robots that share one (in one process) share its searches."""
 
-    def __init__(self, policy: SetActorPolicy, budget: LookaheadBudget, hold_successors: Optional[bool] = None):
+    def __init__(self, policy: SetActorPolicy, budget: LookaheadBudget, hold_successors: Optional[bool] = None,
+                 precedence_margin: float = 0.0):
         if not isinstance(policy, SetActorPolicy) or policy.view is None or not policy.sequential:
             raise ValueError(f"{getattr(policy, 'source', policy)}: lookahead needs a set actor that decides in "
                              f"turn, bound to the scenario (the generalist, or a file fine-tuned from it)")
         self.policy, self.budget = policy, budget
         self.view = policy.view
         scenario = self.view.scenario
+        # With a margin, an episode whose successor is reached within it of its predecessor's
+        # finish is out of order on the model, so no search keeps it (nor the opening plan).
         self.env = make_env(scenario, "embedded", profile="ideal", mask=policy.action_mask,
-                            hold_successors=hold_successors)
+                            hold_successors=hold_successors, precedence_margin=precedence_margin)
         self.actors = [policy.turned(k) for k in range(min(budget.orientations, policy.orientations))]
         self.none = scenario.n_tasks
         self._searched: Dict[tuple, _StepPlan] = {}
@@ -113,6 +121,14 @@ class Lookahead:
         self._play_outs = 0
         self.searches = 0               # steps searched, and play-outs in all, since it was made
         self.play_outs = 0
+
+    def describe(self) -> str:
+        """The search in words, for a node's log."""
+        budget, margin = self.budget, self.env.settings.precedence_margin
+        return (f"looking ahead over {len(self.actors)} orientation(s), {2 * budget.alternatives} other actions per "
+                f"turn, up to {budget.max_play_outs} play-outs a step"
+                + ("" if budget.opening is None else ", opening with the actor's rollout plan")
+                + (f", keeping a precedence margin of {margin:g} s" if margin else ""))
 
     def state_of(self, row: np.ndarray, agent_index: int) -> ObservedState:
         """The state robot `agent_index` observes in its own row (env/observation.py's layout)."""
@@ -234,7 +250,7 @@ class Lookahead:
             self._opened, started = True, time.perf_counter()
             settings = self.env.settings
             instance = scheduling_instance(self.view.scenario, settings.min_step, settings.goal_timeout,
-                                           hold_successors=settings.hold_successors)
+                                           settings.precedence_margin, settings.hold_successors)
             try:
                 self.opening = rollout_plan(self.policy, self.view.scenario, instance, self.budget.opening,
                                             self.policy.action_mask)
