@@ -22,8 +22,8 @@ Writes <out>/bench_generalise.json (headline figures first, tools/bench_table.py
 
   rosrun marl_mrta bench_generalise [--out results] [--policy generalist] [--scenarios 100] [--seed 9]
       [--robots 2 4] [--tasks 4 12] [--layout my_floor.yaml] [--finetune 10] [--mappo 3] [--reference-seconds 10]
-With `--mappo 2` it took 49 min of wall time on 2 cores (per scenario 9 s the rollout's, 7 s the
-lookahead's); the defaults (`--mappo 3`) take 5 min more.
+With `--mappo 2` it took 56 min of wall time on 2 cores (per scenario 20 s the lookahead's, its
+opening rollout plan's 11 s among them); the defaults (`--mappo 3`) take 5 min more.
 """
 from __future__ import annotations
 

@@ -40,6 +40,14 @@ def scenario_value(path: str, key: str) -> Union[int, str]:
     raise KeyError(f"scenario_value: unknown key {key!r} (robots, robot_names, map, start_poses, navigation)")
 
 
+def choice_timeout(path: str, lookahead: bool) -> int:
+    """Wall s rl_manager waits for a robot's choice (execute.launch, real.launch): 30 for the actor
+    alone; with lookahead 120 + 60 per robot. The first step waits for every node's opening
+    rollout plan, and the nodes, one per robot, make theirs at once on the machine's cores: on 2
+    cores site_8r's eight took about 4 min, more than the 300 s this wait once was."""
+    return 120 + 60 * int(scenario_value(path, "robots")) if lookahead else 30
+
+
 def pose_list(poses: Sequence[Sequence[float]]) -> str:
     """Poses as the YAML (and Python) list launch files pass on: [[x, y, yaw], ...]."""
     return "[" + ", ".join(f"[{float(x)!r}, {float(y)!r}, {float(yaw)!r}]" for x, y, yaw in poses) + "]"
