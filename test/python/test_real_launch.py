@@ -76,7 +76,7 @@ def test_lookahead_reaches_every_actor_node_with_the_managers_hold_and_a_longer_
         assert params[f"/{robot}/robot_actor/lookahead"].value is True
         assert params[f"/{robot}/robot_actor/hold_successors"].value is True
     runner, args, _ = episodes_node("method:=policy", "policy:=generalist", "lookahead:=true")
-    assert args[args.index("--choice-timeout") + 1] == "240"     # 120 s + 60 s per robot: the openings first
+    assert args[args.index("--choice-timeout") + 1] == "300"     # 120 s + 90 s per robot: the openings first
     runner, args, _ = episodes_node("method:=policy", "policy:=generalist")
     assert args[args.index("--choice-timeout") + 1] == "30"
     assert params_of("real.launch", "method:=policy", "policy:=generalist")["/tb3_0/robot_actor/lookahead"].value is False

@@ -42,10 +42,10 @@ def scenario_value(path: str, key: str) -> Union[int, str]:
 
 def choice_timeout(path: str, lookahead: bool) -> int:
     """Wall s rl_manager waits for a robot's choice (execute.launch, real.launch): 30 for the actor
-    alone; with lookahead 120 + 60 per robot. The first step waits for every node's opening
+    alone; with lookahead 120 + 90 per robot. The first step waits for every node's opening
     rollout plan, and the nodes, one per robot, make theirs at once on the machine's cores: on 2
-    cores site_8r's eight took about 4 min, more than the 300 s this wait once was."""
-    return 120 + 60 * int(scenario_value(path, "robots")) if lookahead else 30
+    cores site_8r's eight took 6.6 min, more than the 300 s this wait once was."""
+    return 120 + 90 * int(scenario_value(path, "robots")) if lookahead else 30
 
 
 def pose_list(poses: Sequence[Sequence[float]]) -> str:
