@@ -47,6 +47,7 @@ from marl_mrta.baselines.reference import scheduling_instance, solve_reference
 from marl_mrta.baselines.settings import load_baseline_settings
 from marl_mrta.common.config import ConfigError
 from marl_mrta.common.paths import package_root
+from marl_mrta.common.results import write_result
 from marl_mrta.env.settings import load_task_settings
 from marl_mrta.env.factory import make_env
 from marl_mrta.evaluation.lookahead import Lookahead
@@ -265,8 +266,7 @@ def bench(args: argparse.Namespace, log: Callable[[str], None] = print) -> Dict[
               "settings": {k: (list(v) if isinstance(v, tuple) else (str(v) if isinstance(v, Path) else v))
                            for k, v in vars(args).items()},
               "rows": rows, "machine": {"cpu_count": os.cpu_count(), "python": platform.python_version()}}
-    args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "bench_generalise.json").write_text(json.dumps(result, indent=1, allow_nan=True))
+    write_result(args.out / "bench_generalise.json", result)
     for row in headline:
         log(f"{row['figure']}: {row['value']} {row['unit']} (goal {row['goal'] or '-'})")
     return result

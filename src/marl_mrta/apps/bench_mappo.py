@@ -24,6 +24,8 @@ import numpy as np
 from marl_mrta.apps.train import parse_overrides
 from marl_mrta.baselines.reference import scenario_reference
 from marl_mrta.common.config import ConfigError
+from marl_mrta.common.paths import package_root
+from marl_mrta.common.results import write_result
 from marl_mrta.evaluation.training import greedy_episodes, on_new_env
 from marl_mrta.mappo.config import MappoConfig, load_config, resolve_preset
 from marl_mrta.mappo.env_pool import episode_seed
@@ -95,8 +97,8 @@ def learned_allocation(actor_path: str, make_env, episodes: int, seed: int) -> D
 
 def main(argv: Optional[List[str]] = None) -> int:
     parser = argparse.ArgumentParser(prog="bench_mappo", description=__doc__.splitlines()[0])
-    parser.add_argument("--out", default="results", help="directory of bench_mappo.json (default results)")
-    parser.add_argument("--scenario", default="scenarios/lab_2r.xml")
+    parser.add_argument("--out", default=str(package_root() / "results"), help="directory of bench_mappo.json (default results)")
+    parser.add_argument("--scenario", default=str(package_root() / "scenarios" / "lab_2r.xml"))
     parser.add_argument("--seeds", type=int, default=3, help="seeds of the time-to-policy runs (default 3)")
     parser.add_argument("--budget", type=int, default=PAPER_BUDGET,
                         help=f"decision steps of the paper-vs-tuned comparison (default {PAPER_BUDGET})")
@@ -140,7 +142,7 @@ def main(argv: Optional[List[str]] = None) -> int:
 
     log(f"time to policy ({args.preset}, complete, logic-consistent greedy makespan <= {target:.2f} s):")
     fine = replace(chosen, eval_every=1)
-    to_policy = [train(fine, args.scenario, seed, runs / f"tuned_s{seed}", target, True, log) for seed in range(args.seeds)]
+    to_policy = [train(fine, args.scenario, seed, runs / f"{args.preset}_s{seed}", target, True, log) for seed in range(args.seeds)]
     times = [r["time_to_policy_s"] for r in to_policy]
     reached = [t for t in times if t is not None]
 
@@ -195,11 +197,11 @@ def write_embedded_figures(path: Path, result: dict) -> None:
     """bench_mappo.json with the embedded figures replaced; the ros-backend ones (`--ros`), not
     measured by this run, stay as they were."""
     earlier = json.loads(path.read_text()) if path.is_file() else {}
-    if "ros" in earlier:
+    keeps = "ros" in earlier and "provenance" in earlier   # figures of no recorded run are dropped
+    if keeps:
         result = dict(result, ros=earlier["ros"],
                       headline=result["headline"] + [row for row in earlier.get("headline", []) if "ros" in row["figure"]])
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(result, indent=2))
+    write_result(path, result, keeps_earlier=keeps)
 
 
 

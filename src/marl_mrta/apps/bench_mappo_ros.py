@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import Any, Callable, Dict, List, Optional
 
 from marl_mrta.baselines.reference import scenario_reference
+from marl_mrta.common.results import write_result
 from marl_mrta.evaluation.loop import run_episodes
 from marl_mrta.evaluation.policies import PlanPolicy
 from marl_mrta.evaluation.training import in_pool
@@ -115,7 +116,7 @@ def _pretrained(tuned: MappoConfig, ros_config: MappoConfig, scenario_path: str,
                 train_embedded: Callable, log) -> Dict[str, Any]:
     """Embedded candidates (seeds seed, seed+1, ...) checked greedily in the ROS arenas in turn; the
     first within the target is the policy. The embedded executor does not model robots meeting, so
-    allocations it scores alike can differ by seconds in ROS (docs/mappo.md); a candidate whose
+    allocations it scores alike can differ by seconds in ROS (docs/guide/training.md); a candidate whose
     embedded allocation already failed in ROS is not run again. If none passes, the best one trains
     on in ROS. Time to policy counts every embedded training and every ROS evaluation."""
     out = runs / "ros_pretrained"
@@ -244,6 +245,5 @@ def merge_into(path: Path, ros: Dict[str, Any]) -> Dict[str, Any]:
     rows.append({"figure": "exact plan makespan in the ros simulation (reference of the ros target)",
                  "value": round(ros["exact_in_ros"]["makespan_s"], 2), "unit": "s", "goal": ""})
     document["headline"] = rows
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(document, indent=2))
+    write_result(path, document, keeps_earlier=True)
     return document

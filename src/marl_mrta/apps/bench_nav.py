@@ -30,12 +30,15 @@ import platform
 import subprocess
 import sys
 import tempfile
+from pathlib import Path
 
 import yaml
 
 import rospkg
 from roslib.packages import find_node
 
+from marl_mrta.common.paths import package_root
+from marl_mrta.common.results import write_result
 from marl_mrta.ros.process_group import free_port
 
 MAX_SPEED = 0.22  # [m/s] TurtleBot3 Burger
@@ -50,7 +53,7 @@ def navigation_rates(package_dir):
     return {"planning": move_base["planner_frequency"], "dwa": move_base["controller_frequency"],
             "global_costmap": load("config", "nav", "global_costmap_params.yaml")["global_costmap"]["update_frequency"],
             "local_costmap": load("config", "nav", "local_costmap_params.yaml")["local_costmap"]["update_frequency"],
-            "scan": load("config", "sim.yaml")["scan_rate"]}
+            "scan": load("config", "robot_burger.yaml")["scan_rate"]}
 
 
 def log(message):
@@ -193,7 +196,7 @@ def run_graph(robots, sim_seconds, workdir, localization, rates, nodelets):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--out", default="results", help="directory of bench_nav.json")
+    parser.add_argument("--out", default=str(package_root() / "results"), help="directory of bench_nav.json")
     parser.add_argument("--robots", type=int, nargs="+", default=[2, 4], help="robot counts of the graph runs")
     parser.add_argument("--sim-seconds", type=float, default=120.0, help="simulated seconds measured per graph run")
     parser.add_argument("--localization", choices=["simulator", "fake"], default="simulator",
@@ -251,8 +254,7 @@ def main():
               "core": core, "core_ceiling": core_ceiling, "tour": tour, "graph": graphs.get("nodes", {}),
               "graph_nodelets": graphs.get("nodelets", {})}
     path = os.path.join(args.out, "bench_nav.json")
-    with open(path, "w") as f:
-        json.dump(report, f, indent=1)
+    write_result(Path(path), report)
     log("\n%-55s %10s  %s" % ("figure", "value", "goal"))
     for row in headline:
         log("%-55s %8.3g %-2s %s" % (row["figure"], row["value"], row["unit"], row["goal"]))

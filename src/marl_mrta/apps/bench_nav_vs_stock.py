@@ -13,7 +13,7 @@ amcl, localization:=amcl) on the same legs under noise_profile:=measured_tb3 (od
 mean and maximum error of amcl_pose against the ground truth, CPU time of the filter per update.
 
 Writes <out>/bench_nav_vs_stock.json (headline figures first, tools/bench_table.py) and prints
-a table with what misses the goals (docs/navigation.md, "Built-in against stock"). Without the
+a table with what misses the goals (docs/guide/navigation.md). Without the
 stock packages (make stock-nav) it says so in one line and writes nothing.
 
   rosrun marl_mrta bench_nav_vs_stock [--out results] [--maps lab tb3_world] [--legs 4] [--repeats 3]
@@ -45,6 +45,7 @@ import rosgraph
 import rospkg
 
 from marl_mrta.common.paths import package_root
+from marl_mrta.common.results import write_result
 from marl_mrta.evaluation.nav_comparison import (STACKS, Leg, LegRecord, LegRequest, LocalisationSummary,
                                                  MapComparison, compare_map, draw_legs, headline, leg_time)
 from marl_mrta.model.occupancy_map import load_map
@@ -277,7 +278,7 @@ def run(args: argparse.Namespace) -> Optional[dict]:
 
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("--out", default="results", help="directory of bench_nav_vs_stock.json")
+    p.add_argument("--out", default=str(package_root() / "results"), help="directory of bench_nav_vs_stock.json")
     p.add_argument("--maps", nargs="+", default=list(DEFAULT_MAPS), choices=MAP_NAMES,
                    help="maps of the navigation comparison (default: %(default)s)")
     p.add_argument("--legs", type=int, default=4, help="legs per map")
@@ -300,8 +301,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         return 0
     os.makedirs(args.out, exist_ok=True)
     path = os.path.join(args.out, "bench_nav_vs_stock.json")
-    with open(path, "w") as f:
-        json.dump(report, f, indent=1)
+    write_result(Path(path), report)
     log("\n%-60s %10s  %s" % ("figure", "value", "goal"))
     for row in report["headline"]:
         log("%-60s %8.3g %-8s %s" % (row["figure"], row["value"], row["unit"], row["goal"]))

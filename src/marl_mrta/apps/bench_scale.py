@@ -40,6 +40,7 @@ from marl_mrta.apps.bench_task_ros import run_ros_evaluation
 from marl_mrta.baselines.reference import scheduling_instance, solve_reference
 from marl_mrta.baselines.settings import load_baseline_settings
 from marl_mrta.common.paths import package_root
+from marl_mrta.common.results import write_result
 from marl_mrta.env.factory import make_env
 from marl_mrta.env.settings import load_embedded_settings
 from marl_mrta.model.generator import ScenarioRequest, generate_scenario
@@ -298,14 +299,12 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                    if label in wanted else previous[label]
                    for label, scenario in chosen if label in wanted or label in previous]
     rows = headline(results)
-    out.mkdir(parents=True, exist_ok=True)
-    tmp_path = path.with_name(path.name + ".tmp")
-    tmp_path.write_text(json.dumps({"headline": rows, "sizes": results,
-                                    "settings": {"cpsat_limits_per_model": CPSAT_LIMITS, "exact_limit": EXACT_LIMIT,
-                                                 "cpsat_workers": load_baseline_settings().cpsat.workers,
-                                                 **mappo_run},
-                                    "cpu_count": os.cpu_count()}, indent=1))
-    tmp_path.replace(path)
+    kept_earlier = bool(previous) and (set(parts) != set(PARTS) or len(wanted) < len(chosen) or
+                                       any(label not in wanted for label in previous))
+    write_result(path, {"headline": rows, "sizes": results,
+                        "settings": {"cpsat_limits_per_model": CPSAT_LIMITS, "exact_limit": EXACT_LIMIT,
+                                     "cpsat_workers": load_baseline_settings().cpsat.workers, **mappo_run},
+                        "cpu_count": os.cpu_count()}, keeps_earlier=kept_earlier)
     width = max(len(r["figure"]) for r in rows)
     for r in rows:
         print(f"{r['figure'].ljust(width)}  {r['value']!s:>10} {r['unit']:<3} {r['goal']}")

@@ -21,6 +21,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from pathlib import Path
 
 import rosgraph
 import rospkg
@@ -28,6 +29,8 @@ import rospy
 import yaml
 from roslib.packages import find_node
 from std_srvs.srv import SetBool
+
+from marl_mrta.common.results import write_result
 
 
 def binary(name):
@@ -79,8 +82,11 @@ class Roscore:
 
 def run_node(map_yaml, robots, start_poses, sim_seconds, config_file, workdir):
     master = rosgraph.Master("/bench_sim")
-    with open(config_file) as f:
-        params = yaml.safe_load(f)
+    # As sim.launch loads them: the Burger (config/robot_burger.yaml), then the simulator's own file.
+    params = {}
+    for path in (os.path.join(os.path.dirname(config_file), "robot_burger.yaml"), config_file):
+        with open(path) as f:
+            params.update(yaml.safe_load(f) or {})
     stats_file = os.path.join(workdir, "node_%d.json" % robots)
     params.update(map_file=map_yaml, robots=robots, start_poses=start_poses, rtf=0.0, start_paused=True,
                   stop_after=float(sim_seconds), stats_file=stats_file)
@@ -189,9 +195,7 @@ def main():
     }
     os.makedirs(args.out, exist_ok=True)
     output = os.path.join(args.out, "bench_sim.json")
-    with open(output, "w") as f:
-        json.dump(result, f, indent=2)
-        f.write("\n")
+    write_result(Path(output), result)
 
     log("")
     log("robots | core rtf (CPU / wall) | node rtf (wall / CPU) | core: ray casting / physics | node: ray casting / physics / publishing")

@@ -6,7 +6,6 @@ tools/bench_table.py prints) and prints a table.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 import time
@@ -19,6 +18,7 @@ from marl_mrta.baselines.random_policy import RandomPolicy
 from marl_mrta.baselines.reference import exact_reference, scheduling_instance
 from marl_mrta.baselines.settings import load_baseline_settings
 from marl_mrta.common.paths import package_root
+from marl_mrta.common.results import write_result
 from marl_mrta.env.factory import make_env
 from marl_mrta.evaluation.loop import run_episodes
 from marl_mrta.evaluation.policies import PlanPolicy
@@ -115,11 +115,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
              "goal": {"lab_2r": "paper: 4.6", "lab_4r": "paper: 2.6"}.get(name, "")},
         ]
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
     path = out / "bench_task.json"
-    path.write_text(json.dumps({"headline": headline, "speed": speed, "table9": quality,
-                                "cpu_affinity": sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else None},
-                               indent=1))
+    write_result(path, {
+        "headline": headline, "speed": speed, "table9": quality,
+        "cpu_affinity": sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else None})
     for name, q in quality.items():
         print(f"== {name} (embedded, nominal; random over {args.episodes} episodes)")
         print(q["table"])

@@ -2,7 +2,7 @@
 
 For each scenario, `roslaunch marl_mrta evaluate.launch` (simulator in lock-step as fast as
 possible, built-in navigation, task manager, the evaluation command with the ros executor) runs
-random, GA, auction and exact for N episodes and writes DIR/evaluate_ros_<scenario>.json. Then:
+random, GA, auction and exact for N episodes and writes DIR/bench_task_ros/evaluate_ros_<scenario>.json. Then:
 - agreement: the exact schedule's makespan in the embedded executor (nominal travel times) vs
   its mean in the ROS simulation on lab_2r (goal: within 15 %);
 - Table 9: mean makespan per method, ratios to the exact schedule's ROS mean, random ÷ GA
@@ -23,6 +23,7 @@ from typing import Any, Dict, List, Optional, Sequence
 
 from marl_mrta.baselines.reference import scenario_reference
 from marl_mrta.common.paths import package_root
+from marl_mrta.common.results import write_result
 from marl_mrta.env.factory import make_env
 from marl_mrta.evaluation.loop import run_episodes
 from marl_mrta.evaluation.policies import PlanPolicy
@@ -44,6 +45,7 @@ def run_ros_evaluation(scenario: Path, episodes: int, out: Path, seed: int, time
     print(f"{Path(sys.argv[0]).name}: {' '.join(command)}", file=sys.stderr, flush=True)
     started = time.monotonic()
     log = out.with_suffix(".log")
+    log.parent.mkdir(parents=True, exist_ok=True)
     with open(log, "w") as stream:
         try:
             result = subprocess.run(command, env=env, stdout=stream, stderr=subprocess.STDOUT, timeout=timeout)
@@ -115,14 +117,14 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     parser.add_argument("--seed", type=int, default=0, help="seed of episodes and planners (default 0)")
     parser.add_argument("--timeout", type=float, default=4 * 3600.0, help="wall s allowed per scenario (default 4 h)")
     parser.add_argument("--reuse", action="store_true",
-                        help="use DIR/evaluate_ros_<scenario>.json where it exists with as many episodes")
+                        help="use DIR/bench_task_ros/evaluate_ros_<scenario>.json where it exists with as many episodes")
     args = parser.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     summaries = []
     for name in [n.strip() for n in args.scenarios.split(",") if n.strip()]:
         scenario = package_root() / "scenarios" / f"{name}.xml"
-        path = out / f"evaluate_ros_{name}.json"
+        path = out / "bench_task_ros" / f"evaluate_ros_{name}.json"   # with its Gantt charts
         reuse = args.reuse and path.is_file() and json.loads(path.read_text()).get("episodes") == args.episodes
         if not reuse:
             try:
@@ -157,9 +159,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     if summaries:
         headline.append({"figure": "ROS evaluation whole-episode real-time factor (episode time / wall time)",
                          "unit": "x", "value": round(sim_time / wall_time, 2), "goal": ""})
-    (out / "bench_task_ros.json").write_text(json.dumps(
-        {"headline": headline, "scenarios": summaries, "methods": list(METHODS), "seed": args.seed,
-         "cpu_count": os.cpu_count()}, indent=1))
+    write_result(out / "bench_task_ros.json", {"headline": headline, "scenarios": summaries, "methods": list(METHODS),
+                                               "seed": args.seed, "cpu_count": os.cpu_count()})
     print(format_table(summaries))
     width = max((len(h["figure"]) for h in headline), default=0)
     print("== headline")

@@ -29,7 +29,8 @@ from marl_mrta.baselines.random_policy import RandomPolicy
 from marl_mrta.baselines.reference import Reference, scheduling_instance, solve_reference
 from marl_mrta.baselines.settings import load_baseline_settings
 from marl_mrta.common.config import ConfigError
-from marl_mrta.common.paths import package_root
+from marl_mrta.common.paths import package_root, runs_dir
+from marl_mrta.common.results import write_result
 from marl_mrta.env.factory import EXECUTORS, make_env
 from marl_mrta.env.settings import MASK_MODES
 from marl_mrta.evaluation.loop import run_episodes
@@ -37,8 +38,7 @@ from marl_mrta.evaluation.policies import LearnedPolicy, PlanPolicy, PolicyLoadE
 from marl_mrta.evaluation.lookahead import Lookahead
 from marl_mrta.evaluation.robot_actor import in_process_team
 from marl_mrta.evaluation.rollout import RolloutError, rollout_plan
-from marl_mrta.evaluation.summary import (ProgressLine, episode_rows, format_table, method_report,
-                                          write_document)
+from marl_mrta.evaluation.summary import (ProgressLine, episode_rows, format_table, method_report)
 from marl_mrta.mappo.policy import PolicyFileError, load_policy
 from marl_mrta.model.scenario import Scenario, ScenarioError
 
@@ -71,7 +71,7 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> argparse.Namespace:
                         "else config/task.yaml)")
     parser.add_argument("--hold-successors", action="store_true",
                         help="a robot early at a successor waits for its predecessors, and the plans are made for "
-                             "it (docs/task_allocation.md, Step rules; default: config/task.yaml, or on with an actor "
+                             "it (docs/guide/evaluation.md, Step rules; default: config/task.yaml, or on with an actor "
                              "--policy trained under it; --executor ros: the task manager's)")
     parser.add_argument("--policy", default=None,
                         help="actor file for --method policy, lookahead or rollout (an MLP actor: its scenario; a set actor: any "
@@ -79,7 +79,7 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> argparse.Namespace:
     parser.add_argument("--seed", type=int, default=0, help="seed of episodes and planners (default 0)")
     parser.add_argument("--out", default=None,
                         help="JSON output file, or a directory for the default name "
-                             "(default results/evaluate_<scenario>_<methods>.json)")
+                             "(default results/runs/evaluate_<scenario>_<methods>.json)")
     parser.add_argument("--no-exact", action="store_true", help="skip the exact reference (no ratio column)")
     parser.add_argument("--time-limit", type=float, default=None,
                         help="s of CP-SAT deterministic time per model of the reference (default: config/task_baselines.yaml)")
@@ -201,7 +201,7 @@ def output_path(args: argparse.Namespace, scenario_name: str) -> Path:
     executor = "" if args.executor == "embedded" else f"{args.executor}_"
     name = f"evaluate_{executor}{scenario_name}_{'_'.join(args.methods)}.json"
     if not args.out:
-        out = package_root() / "results" / name
+        out = runs_dir() / name
     else:
         out = Path(args.out)
         if out.is_dir() or args.out.endswith(("/", os.sep)):
@@ -246,7 +246,7 @@ def evaluate(args: argparse.Namespace) -> int:
     if not args.no_exact or "exact" in args.methods:
         if not args.quiet:   # its search can take minutes on a large team, before any robot moves
             print(f"evaluate: planning the reference of {scenario.name} ({scenario.n_robots} robots, "
-                  f"{scenario.n_tasks} tasks; config/baselines.yaml's budget)", file=sys.stderr)
+                  f"{scenario.n_tasks} tasks; config/task_baselines.yaml's budget)", file=sys.stderr)
         reference = solve_reference(instance, settings, candidates=list(plans.values()))
         for line in reference.log:
             print(f"  {line}", file=sys.stderr)
@@ -310,7 +310,7 @@ def evaluate(args: argparse.Namespace) -> int:
         "reference": reference.as_dict() if reference is not None else None,
         "results": results,
     }
-    write_document(out, document)
+    write_result(out, document)
     print(f"wrote {out} and {len(results)} Gantt chart(s)", file=sys.stderr)
     if aborted:
         print(f"evaluate: {aborted}; no further episode started", file=sys.stderr)

@@ -17,11 +17,11 @@ import rospy
 
 from marl_mrta.baselines.reference import Reference, scheduling_instance, solve_reference
 from marl_mrta.common.config import ConfigError
-from marl_mrta.common.paths import package_root
+from marl_mrta.common.paths import runs_dir
+from marl_mrta.common.results import write_result
 from marl_mrta.evaluation.decentralised import ActorTimeout, ChoiceBoard, DecentralisedPolicy
 from marl_mrta.evaluation.loop import run_episodes
-from marl_mrta.evaluation.summary import (MethodSummary, ProgressLine, episode_rows, format_table, method_report,
-                                          write_document)
+from marl_mrta.evaluation.summary import (MethodSummary, ProgressLine, episode_rows, format_table, method_report)
 from marl_mrta.mappo.claims import ClaimRules
 from marl_mrta.mappo.set_view import SetView
 from marl_mrta.model.scenario import ScenarioError
@@ -40,7 +40,7 @@ def parse_execute_args(argv: Sequence[str]) -> argparse.Namespace:
     parser.add_argument("--connect-timeout", type=float, default=120.0,
                         help="wall s to wait for the robots' actors at start (default 120)")
     parser.add_argument("--out", default=None,
-                        help="JSON output file (default results/execute_ros_<scenario>.json, Gantt chart beside it)")
+                        help="JSON output file (default results/runs/execute_ros_<scenario>.json, Gantt chart beside it)")
     parser.add_argument("--no-exact", action="store_true", help="skip the exact reference (no ratio column)")
     args = parser.parse_args(list(argv))
     if args.episodes < 1:
@@ -75,7 +75,7 @@ def execute(args: argparse.Namespace, log: Callable[[str], None]) -> Dict:
                            stop_on_abort=env.stops_on_abort)
     seconds = time.monotonic() - started
 
-    out = Path(args.out) if args.out else package_root() / "results" / f"execute_ros_{env.scenario.name}.json"
+    out = Path(args.out) if args.out else runs_dir() / f"execute_ros_{env.scenario.name}.json"
 
     def report(reference: Optional[Reference]) -> Tuple[MethodSummary, Dict]:
         # As evaluate: the ratio to a proven optimum, else to the best known plan, named as such.
@@ -92,7 +92,7 @@ def execute(args: argparse.Namespace, log: Callable[[str], None]) -> Dict:
             "reference": reference.as_dict() if reference is not None else None,
             "seconds": seconds, **part, "records": episode_rows(records),
         }
-        write_document(out, document)
+        write_result(out, document)
         return summary, document
 
     # The episodes are written before the reference is planned: its search takes up to the
@@ -100,7 +100,7 @@ def execute(args: argparse.Namespace, log: Callable[[str], None]) -> Dict:
     summary, document = report(None)
     log(f"rl_manager: {len(records)} episode(s) in {seconds:.1f} s wall; wrote {out} and {document['gantt']}")
     if not args.no_exact:
-        log("rl_manager: planning the exact reference for the ratio column (config/baselines.yaml's budget; "
+        log("rl_manager: planning the exact reference for the ratio column (config/task_baselines.yaml's budget; "
             "--no-exact skips it)")
         instance = scheduling_instance(env.scenario, env.settings.min_step, env.settings.goal_timeout,
                                        hold_successors=env.settings.hold_successors)

@@ -1,4 +1,4 @@
-"""robot_actor: one robot's trained actor at run time (decentralised execution, docs/mappo.md).
+"""robot_actor: one robot's trained actor at run time (decentralised execution, docs/guide/training.md).
 
 Started in the robot's namespace (launch/execute.launch). Parameters: ~policy (actor file, or generalist),
 ~agent_index (this robot's index in the scenario's robot order), ~scenario (the scenario file:

@@ -7,15 +7,15 @@ odometry. Reported per robot and in total: distance driven (ground truth), sim t
 time, real-time factor, collision events, and how far each robot ended from where it started.
 Writes the figures to ``~output`` (JSON) when set.
 """
-import json
 import math
-import os
 import threading
 import time
+from pathlib import Path
 
 import rospy
 from nav_msgs.msg import Odometry
 
+from marl_mrta.common.results import write_result
 from marl_mrta.msg import CollisionEvent
 from marl_mrta.ros.lockstep import LockstepController
 
@@ -159,10 +159,7 @@ def main():
     print("  total: %.2f m driven, %.1f s sim time in %.1f s wall time (%.1f x real time), %d collision events" % (
         result["distance_m"], sim, wall, result["real_time_factor"] or 0.0, len(collisions)))
     if output:
-        os.makedirs(os.path.dirname(os.path.abspath(output)), exist_ok=True)
-        with open(output, "w") as f:
-            json.dump(result, f, indent=2)
-            f.write("\n")
+        write_result(Path(output), result)
         print("  written %s" % output)
     if not result["all_finished"]:
         rospy.logerr("sim_demo: not every robot finished its route within %.0f s of sim time", time_limit)

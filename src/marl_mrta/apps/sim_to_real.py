@@ -29,9 +29,9 @@ from typing import Dict, List, Optional, Sequence
 
 from marl_mrta.common.config import read_yaml
 from marl_mrta.common.paths import default_config_path, package_root
+from marl_mrta.common.results import write_result
 from marl_mrta.evaluation.sim_to_real import (FAULTS, PAPER, ROBOTS, ROWS, displaced_position, plot,
                                               read_ground_truth, row_figures, stop_time)
-from marl_mrta.evaluation.summary import write_document
 
 MANAGER = "/rl_task_allocation_manager"
 #: Where each failure kind's stop latency counts from (the fault known to the graph).
@@ -275,7 +275,7 @@ def report_main(args: argparse.Namespace) -> int:
     faults = [f for f in args.faults.split(",") if f]
     if faults:
         report["faults"] = run_faults(sorted(faults, key=FAULTS.index), work, args.port + len(plans))
-    write_document(out_dir / "sim_to_real.json", report)
+    write_result(out_dir / "sim_to_real.json", report)
     plot(report, out_dir / "sim_to_real.png")
     for kind, row in rows.items():
         loc = row["localisation_error_m"]

@@ -1,6 +1,6 @@
 """ROS node: the task manager of one arena (scenario, precedence, goals, reward, episodes).
 
-Topics, services and parameters: docs/task_allocation.md ("The ROS node"). Bad parameters or
+Topics, services and parameters: docs/reference/nodes_tasks.md. Bad parameters or
 scenario, or a graph that does not come up: one FATAL line and exit status 1.
 """
 

@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any, Callable, Dict, List, Optional
 
 from marl_mrta.common.config import ConfigError
-from marl_mrta.common.paths import package_root
+from marl_mrta.common.paths import package_root, runs_dir
 from marl_mrta.evaluation.training import in_pool, offer_teacher_plan, on_new_env
 from marl_mrta.mappo.config import MappoConfig, config_from_dict, load_config, resolve_preset
 from marl_mrta.mappo.runner import RunError, Runner
@@ -22,7 +22,7 @@ from marl_mrta.model.scenario import ScenarioError
 
 #: The preset of a run without --preset: an actor file (--init, default the shipped generalist)
 #: fine-tuned on the scenario for a minute, which holds up on scenarios no preset was tuned on
-#: (docs/mappo.md, "The generalist").
+#: (docs/guide/training.md).
 FINETUNE_PRESET = "finetune"
 #: ... but with --init none (new weights) or the ros backend: the tuned preset's MLP actor
 #: (config/mappo/tuned.yaml), which learns the lab fastest.
@@ -149,7 +149,7 @@ def _fresh_runner(args: argparse.Namespace, log: Callable[[str], None]) -> Runne
     scenario = backend["scenario"]
     suffix = f"_ros{config.n_envs}" if args.backend == "ros" else ""
     run_name = f"{Path(scenario).stem}_{Path(preset).stem}{suffix}_s{seed}"
-    out = Path(args.out) if args.out else package_root() / "results" / "runs" / run_name
+    out = Path(args.out) if args.out else runs_dir() / run_name
     init = None if args.init is None else ("" if args.init == "none" else args.init)
     runner = Runner(config, backend["make_env"], evaluate=backend["evaluate"], scenario=scenario, seed=seed,
                     out_dir=out, log=log, pool=backend.get("pool"), init_actor=init)

@@ -2,7 +2,7 @@
 
     train_generalist --out results/runs/generalist --scenarios 320 --robots 2 4 --tasks 4 16 --mappo-steps 48000 --seed 0
 
-That command made the shipped file (docs/mappo.md, "The generalist").
+That command made the shipped file (docs/guide/training.md).
 Stages, each seeded and timed; the exact teacher's budget is wall time, so on a loaded machine
 the plans, and what is learnt from them, can differ:
 1. scenarios: `--scenarios` drawn by model/generator.py, `--robots` 2-8 robots and `--tasks` 4-32
@@ -43,6 +43,7 @@ from marl_mrta.baselines.reference import choose_solver, scheduling_instance
 from marl_mrta.baselines.settings import BaselineSettings, load_baseline_settings
 from marl_mrta.common.config import ConfigError
 from marl_mrta.common.paths import package_root
+from marl_mrta.common.results import write_result
 from marl_mrta.env.factory import make_env
 from marl_mrta.env.settings import load_embedded_settings, load_task_settings
 from marl_mrta.evaluation.loop import run_episode
@@ -264,7 +265,7 @@ def train_generalist(args: argparse.Namespace, log: Callable[[str], None] = prin
     summary = {"scenarios": len(scenarios), "holdout": len(holdout), "seed": args.seed, **sizes, "settings": config_to_dict(config),
                "seconds": {k: round(v, 1) for k, v in times.items()}, "imitation": imitation,
                "imitation_check": imitated, "mappo_checks": checks, "best_check": best}
-    (out / "generalist.json").write_text(json.dumps(summary, indent=1, allow_nan=True))
+    write_result(out / "generalist.json", summary)
     log(f"train_generalist: {len(scenarios)} scenarios, {times['total_s']:.0f} s (plans {times['plans_s']:.0f} s, "
         f"imitation {times['imitation_s']:.0f} s, MAPPO {times['mappo_s']:.0f} s); holdout mean ratio "
         f"{best['mean']:.4f}; actor {out / 'actor.pt'}")

@@ -13,6 +13,12 @@ def package_root() -> Path:
     return Path(rospkg.RosPack().get_path("marl_mrta"))
 
 
+def runs_dir() -> Path:
+    """Where a user's runs go when no --out names a place: results/runs/ (git-ignored). results/
+    itself holds the benchmarks' files, from which docs/results.md is generated."""
+    return package_root() / "results" / "runs"
+
+
 def default_config_path(name: str) -> Path:
     """config/<name> of the package."""
     return package_root() / "config" / name

@@ -1,7 +1,6 @@
 """What an evaluation reports of a method's episodes: the paper's Tables 8–9, progress, documents."""
 from __future__ import annotations
 
-import json
 import math
 import sys
 import time
@@ -120,15 +119,6 @@ def episode_rows(records: Sequence[EpisodeRecord]) -> List[Dict[str, Any]]:
              "tasks_per_robot": r.tasks_per_robot()} for r in records]
 
 
-def json_value(value: Any) -> Any:
-    """json.dumps' `default` for result documents: numpy scalars, non-finite floats as text."""
-    if isinstance(value, float) and not math.isfinite(value):
-        return str(value)
-    if hasattr(value, "item"):
-        return value.item()
-    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
-
-
 def method_report(method: str, records: Sequence[EpisodeRecord], categories: Sequence[str], gantt: Path,
                   title: str, exact_makespan: Optional[float], lower_bound: Optional[float] = None,
                   ratio_basis: str = "exact") -> "tuple[MethodSummary, Dict[str, Any]]":
@@ -139,11 +129,3 @@ def method_report(method: str, records: Sequence[EpisodeRecord], categories: Seq
     plot_gantt(records[summary.representative], list(categories), gantt, title=title)
     return summary, {"summary": summary.as_dict(), "gantt": str(gantt),
                      "representative_episode": records[summary.representative].to_dict()}
-
-
-def write_document(path: Path, document: Dict[str, Any]) -> None:
-    """The JSON result file, written atomically (a kill never leaves half a file)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps(document, indent=1, default=json_value))
-    tmp.replace(path)

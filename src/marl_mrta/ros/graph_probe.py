@@ -13,7 +13,7 @@ import rospy
 from geometry_msgs.msg import PoseWithCovarianceStamped, Twist
 from nav_msgs.msg import Odometry
 
-from marl_mrta.evaluation.summary import write_document
+from marl_mrta.common.results import write_result
 from marl_mrta.ros.sim_link import quaternion_to_yaw
 
 
@@ -66,6 +66,6 @@ def main(argv: Sequence[str]) -> int:
     args = parser.parse_args(list(argv))
     rospy.init_node("graph_probe")
     probe = GraphProbe(args.robots.split())
-    rospy.on_shutdown(lambda: write_document(Path(args.out), probe.snapshot()))
+    rospy.on_shutdown(lambda: write_result(Path(args.out), probe.snapshot()))
     rospy.spin()
     return 0

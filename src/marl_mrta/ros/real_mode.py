@@ -1,4 +1,4 @@
-"""The task manager's real-robot side (mode: real, docs/real_robots.md): the operator's services
+"""The task manager's real-robot side (mode: real, docs/guide/real_robots.md): the operator's services
 `~go` and `~estop` (std_srvs/Trigger), the stop on node shutdown (Ctrl-C), and the record of an
 aborted episode written to `aborted_episode_file`, so that an episode the client can no longer
 receive (Ctrl-C, a lost master) still reaches a file.
@@ -14,7 +14,8 @@ from typing import Callable, Optional
 import rospy
 from std_srvs.srv import Trigger, TriggerResponse
 
-from marl_mrta.evaluation.summary import episode_rows, write_document
+from marl_mrta.common.results import write_result
+from marl_mrta.evaluation.summary import episode_rows
 from marl_mrta.model.schedule import EpisodeRecord
 
 #: The abort reason of a shutdown: rospy's name of the signal (Ctrl-C: signal-2), else a request.
@@ -86,11 +87,11 @@ class RealModeServices:
         self.executor.fleet_stop.wait_hold(self.executor.real.stop_hold + 0.5)
 
     def write_aborted(self, record: EpisodeRecord) -> None:
-        """The aborted episode's record as a result document (docs/real_robots.md)."""
+        """The aborted episode's record as a result document (docs/guide/real_robots.md)."""
         if self.aborted_file is None:
             return
         document = {"scenario": str(self.scenario.source), "scenario_name": self.scenario.name, "executor": "ros",
                     "mode": "real", "aborted": True, "abort_reason": record.abort_reason,
                     "episodes": episode_rows([record]), "episode": record.to_dict()}
-        write_document(self.aborted_file, document)
+        write_result(self.aborted_file, document)
         rospy.logerr("episode aborted (%s): its record is in %s", record.abort_reason, self.aborted_file)
