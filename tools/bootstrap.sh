@@ -1,8 +1,11 @@
 #!/usr/bin/env bash
 # Installs everything marl_mrta needs on a fresh machine. Idempotent: a second run
 # installs nothing. Uses sudo only when not already root.
-#   Debian 12    : Debian's ROS 1 packages + a venv (system site packages) with torch CPU
-#   Ubuntu 20.04 : ros-noetic-* from packages.ros.org (incl. the navigation stack) + the same venv
+#   Debian 12    : Debian's ROS 1 packages + a venv (system site packages) with torch
+#   Ubuntu 20.04 : ros-noetic-* from packages.ros.org (incl. the navigation stack) + the same venv,
+#                  which also carries its own scipy and matplotlib (requirements.txt: the numpy that
+#                  OR-Tools and pandas need is newer than focal's scipy 1.3 and matplotlib 3.1 accept)
+# torch comes from PyTorch's CPU wheel index where it is reachable, else from PyPI; one line says which.
 set -euo pipefail
 
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -16,7 +19,7 @@ export DEBIAN_FRONTEND=noninteractive
 os="${ID:-unknown}-${VERSION_ID:-unknown}"
 
 debian_pkgs=(
-  build-essential cmake catkin catkin-lint googletest libgtest-dev libyaml-cpp-dev
+  build-essential cmake curl ca-certificates catkin catkin-lint googletest libgtest-dev libyaml-cpp-dev
   libroscpp-dev librosconsole-dev libstd-msgs-dev libgeometry-msgs-dev libsensor-msgs-dev
   libnav-msgs-dev libstd-srvs-dev libvisualization-msgs-dev libros-rosgraph-msgs-dev
   libtf2-ros-dev libtf2-geometry-msgs-dev libactionlib-dev libactionlib-msgs-dev
@@ -35,7 +38,7 @@ debian_pkgs=(
   openssh-server openssh-client python3-paramiko
 )
 noetic_pkgs=(
-  build-essential cmake python3-catkin-lint python3-venv python3-pip python3-pytest
+  build-essential cmake curl ca-certificates python3-catkin-lint python3-venv python3-pip python3-pytest
   ros-noetic-ros-base ros-noetic-rostest ros-noetic-rviz ros-noetic-robot-state-publisher
   ros-noetic-xacro ros-noetic-tf2-ros ros-noetic-tf2-geometry-msgs ros-noetic-actionlib
   ros-noetic-laser-geometry ros-noetic-move-base-msgs ros-noetic-nav-msgs
@@ -57,8 +60,7 @@ missing() {  # prints the packages of "$@" that dpkg does not have installed
 case "$os" in
   debian-12)
     pkgs=("${debian_pkgs[@]}")
-    torch_spec="torch==2.13.0"   # the CPU wheel; a bare 'torch' would pull a CUDA build
-    torch_index=()
+    torch_spec="torch==2.13.0"
     ;;
   ubuntu-20.04)
     if [ ! -f /etc/apt/sources.list.d/ros-latest.list ]; then
@@ -67,7 +69,6 @@ case "$os" in
     fi
     pkgs=("${noetic_pkgs[@]}")
     torch_spec="torch>=1.13,<2.5"   # the last releases for Python 3.8
-    torch_index=(--index-url https://download.pytorch.org/whl/cpu)
     ;;
   *)
     echo "bootstrap: unsupported OS '$os' (supported: Debian 12, Ubuntu 20.04 with ROS Noetic)" >&2
@@ -96,7 +97,20 @@ if [ ! -f "$stamp" ] || [ "$here/requirements.txt" -nt "$stamp" ]; then
       | { grep -v "^WARNING: Location '.*' is ignored" || true; }
     return "${PIPESTATUS[0]}"
   }
-  pip_install "${torch_index[@]}" "$torch_spec"
+  # torch: the CPU build from PyTorch's own index where it is reachable. PyPI's Linux x86_64 wheel
+  # is the CUDA build, with gigabytes of nvidia wheels, so PyPI is only the fallback.
+  cpu_index=https://download.pytorch.org/whl/cpu
+  if ! curl -fsS --max-time 10 -o /dev/null "$cpu_index/torch/" 2>/dev/null; then
+    pip_install "$torch_spec"
+    source_of_torch="PyPI ($cpu_index is not reachable)"
+  elif pip_install --index-url "$cpu_index" "$torch_spec"; then
+    source_of_torch="the CPU wheel index ($cpu_index)"
+  else
+    pip_install "$torch_spec"
+    source_of_torch="PyPI ($cpu_index has no $torch_spec)"
+  fi
+  build_of_torch=$("$venv/bin/python3" -c 'import torch; print("CUDA" if torch.version.cuda else "CPU")')
+  echo "bootstrap: $torch_spec from $source_of_torch: the $build_of_torch build"
   pip_install -r "$here/requirements.txt"
   touch "$stamp"
 fi
