@@ -1,6 +1,7 @@
 # marl_mrta: set-up, build, test, demo and benchmarks in one place.
 #   make demo   set up, build, run the main job on the default scenario, write results/
 #   make test   set up, build, run every test (gtest, pytest, rostest)
+#   make test-fast  set up, build, run the unit tier: gtest and the ROS-free Python tests
 #   make bench  run the benchmarks, write results/*.json and print a table
 #   make stock-nav [NAV_SRC=clone-or-tarball]  build the stock navigation stack for nav:=stock
 SHELL := /bin/bash
@@ -18,7 +19,7 @@ else
   WS ?= $(PKG_DIR)/.ws
 endif
 JOBS ?= $(shell nproc)
-# The stock navigation stack's source (docs/navigation.md): a clone of ros-planning/navigation
+# The stock navigation stack's source (docs/guide/navigation.md): a clone of ros-planning/navigation
 # (noetic-devel) or a tarball of one; by default the one `make stock-nav` last built for this
 # workspace, else the tarball in ../shared. Built in a workspace of its own (tools/stock_nav.sh)
 # that the project's workspace then overlays.
@@ -29,12 +30,16 @@ STOCK_NAV := bash $(PKG_DIR)/tools/stock_nav.sh
 
 # /usr/bin before any other python3 (ROS runs on the system interpreter); the venv adds torch & co.
 export PATH := $(VENV)/bin:/usr/bin:/bin:$(PATH)
+# Ubuntu 20.04: catkin_make and ROS's environment come from ROS Noetic's own setup file (Debian 12's
+# ROS packages install into /usr and need none).
+ROS_DISTRO_SETUP ?= /opt/ros/noetic/setup.bash
+ROS_BASE_ENV := $(if $(wildcard $(ROS_DISTRO_SETUP)),source $(ROS_DISTRO_SETUP) &&,)
 ROS_ENV := source $(WS)/devel/setup.bash
 CATKIN_ARGS := -DPYTHON_EXECUTABLE=$(VENV)/bin/python3 -DCMAKE_BUILD_TYPE=Release -DCATKIN_ENABLE_TESTING=ON
 
-.PHONY: help setup workspace build test demo bench lint clean stock-nav stock-nav-if-source
+.PHONY: help setup workspace build test test-fast demo bench lint clean stock-nav stock-nav-if-source
 help:
-	@sed -n '2,5p' $(PKG_DIR)/Makefile | sed 's/^# *//'
+	@sed -n '2,6p' $(PKG_DIR)/Makefile | sed 's/^# *//'
 
 setup:
 	@MARL_MRTA_VENV=$(VENV) bash $(PKG_DIR)/tools/bootstrap.sh
@@ -56,14 +61,25 @@ stock-nav-if-source: setup
 # underlays when cmake runs, so a change of underlay (built, removed) re-runs cmake.
 build: setup workspace $(if $(filter test,$(MAKECMDGOALS)),stock-nav-if-source)
 	@underlay=$$($(STOCK_NAV) setup-file "$(NAV_SRC_PATH)"); stamp=$(WS)/build/.stock_nav_underlay; \
-	  if [ -n "$$underlay" ]; then source "$$underlay"; fi; \
+	  $(ROS_BASE_ENV) if [ -n "$$underlay" ]; then source "$$underlay"; fi; \
 	  force=; [ "$$(cat $$stamp 2>/dev/null)" = "$$underlay" ] || force=--force-cmake; \
 	  cd $(WS) && catkin_make -j$(JOBS) $(CATKIN_ARGS) $$force && echo "$$underlay" >$$stamp
 
+# Both tiers build the gtests (catkin's `tests`), run in tools/run_tests.sh, and end with one count
+# (tools/test_summary.py) and catkin_test_results; the exit status is non-zero on any failure.
+TEST_SUMMARY = cd $(WS) && $(ROS_ENV) && status=0 && { python3 $(PKG_DIR)/tools/test_summary.py build/test_results/marl_mrta || status=$$?; } && catkin_test_results build/test_results/marl_mrta && exit $$status
+
 test: build
 	@rm -rf $(WS)/build/test_results/marl_mrta
-	@cd $(WS) && $(ROS_ENV) && catkin_make -j1 $(CATKIN_ARGS) run_tests
-	@cd $(WS) && $(ROS_ENV) && status=0 && { python3 $(PKG_DIR)/tools/test_summary.py build/test_results/marl_mrta || status=$$?; } && catkin_test_results build/test_results/marl_mrta && exit $$status
+	@cd $(WS) && $(ROS_ENV) && catkin_make -j$(JOBS) $(CATKIN_ARGS) tests
+	@cd $(WS) && $(ROS_ENV) && bash $(PKG_DIR)/tools/run_tests.sh all $(WS)/build || true
+	@$(TEST_SUMMARY)
+
+test-fast: build
+	@rm -rf $(WS)/build/test_results/marl_mrta
+	@cd $(WS) && $(ROS_ENV) && catkin_make -j$(JOBS) $(CATKIN_ARGS) tests
+	@cd $(WS) && $(ROS_ENV) && bash $(PKG_DIR)/tools/run_tests.sh fast $(WS)/build || true
+	@$(TEST_SUMMARY)
 
 demo: build
 	@$(ROS_ENV) && bash $(PKG_DIR)/tools/demo.sh

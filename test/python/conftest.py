@@ -1,10 +1,13 @@
-"""Order of the Python tests. They run in three processes (cmake/tests.cmake: pytest -n 3 --dist
-worksteal), each starting on its third of the queue. The files listed here drive robots in wall
-time for minutes with little CPU; queued first, they run beside the rest instead of after it."""
-import os
+"""Markers of the Python tests' tiers (docs/guide/development.md, "Tests"):
 
-WALL_TIME_FIRST = ("test_nav_vs_stock_short.py",)
+- ros: starts ROS processes (roslaunch, nodes) or drives robots in the simulator;
+- wallclock: runs on the wall clock (real time), so it shares the machine with few CPU-bound tests;
+- slow: takes seconds of CPU (training, search, whole evaluations).
+
+`make test-fast` runs the tests with none of them; `make test` runs all (cmake/tests.cmake)."""
 
 
-def pytest_collection_modifyitems(session, config, items):
-    items.sort(key=lambda item: os.path.basename(str(item.fspath)) not in WALL_TIME_FIRST)   # a stable sort
+def pytest_configure(config):
+    config.addinivalue_line("markers", "ros: starts ROS processes or drives robots in the simulator")
+    config.addinivalue_line("markers", "wallclock: runs on the wall clock; kept apart from CPU-bound tests")
+    config.addinivalue_line("markers", "slow: takes seconds of CPU (training, search, whole evaluations)")

@@ -3,6 +3,8 @@ already there (and the settings its kept MAPPO figures were run with), fills the
 from a real fine-tuning run, and refuses a bad option with one line."""
 import json
 
+import pytest
+
 from marl_mrta.apps.bench_scale import main as bench_scale_main
 
 #: A result of part `solvers` for the smallest size, as an earlier run wrote it.
@@ -23,6 +25,7 @@ def test_a_bad_part_is_one_line_and_exit_2(tmp_path, capsys):
     assert not (tmp_path / "bench_scale.json").exists()
 
 
+@pytest.mark.slow
 def test_part_mappo_fine_tunes_and_keeps_the_other_figures(tmp_path):
     kept_4x8 = dict(SOLVED_2X8, size="4x8", best_makespan=25.992, lower_bound=25.992)
     (tmp_path / "bench_scale.json").write_text(json.dumps({"headline": [], "sizes": [SOLVED_2X8, kept_4x8]}))
@@ -46,6 +49,7 @@ def test_part_mappo_fine_tunes_and_keeps_the_other_figures(tmp_path):
     assert "4x8 ga / best known" in figures
 
 
+@pytest.mark.slow
 def test_part_solvers_keeps_the_settings_the_kept_mappo_figures_were_run_with(tmp_path):
     mappo_run = {"mappo_seconds": 300.0, "mappo_settings": ["teacher=reference"]}
     (tmp_path / "bench_scale.json").write_text(json.dumps({"headline": [], "sizes": [SOLVED_2X8],

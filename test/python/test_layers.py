@@ -1,4 +1,4 @@
-"""The Python package's layers (docs/architecture.md): each imports only the layers below it,
+"""The Python package's layers (docs/design.md): each imports only the layers below it,
 no module import closes a cycle, and no core layer reaches ROS."""
 import ast
 import sys

@@ -81,6 +81,7 @@ def test_each_robot_reads_the_state_from_its_own_row_and_the_episode_resumes_the
     assert again.info.elapsed == pytest.approx(output.info.elapsed, abs=1e-3)
 
 
+@pytest.mark.slow
 def test_lookahead_reaches_lab_3r_optimum_the_actor_alone_misses():
     scenario, policy, lookahead = bound(LAB / "lab_3r.xml")
     task = load_task_settings()
@@ -99,6 +100,7 @@ UNSEEN = [DATA / name for name in ("join_2r4t.xml", "chains_3r6t.xml", "turned_3
 
 
 @pytest.mark.parametrize("path", UNSEEN, ids=lambda p: p.stem)
+@pytest.mark.slow
 def test_lookahead_is_never_longer_than_the_actors_own_episodes(path):
     """Rollout's guarantee: the search at each step starts from the episode the last step's found,
     so the team's episode is at most the shortest of the actor's own episodes (played as the
@@ -116,6 +118,7 @@ def test_lookahead_is_never_longer_than_the_actors_own_episodes(path):
         assert looked < min(alone) - 10.0
 
 
+@pytest.mark.slow
 def test_the_team_keeps_the_opening_rollout_plan_while_no_search_beats_it():
     """On chains_3r6t the steps' searches alone end at 40.71 s; the rollout plan made at the
     first step, 39.27 s, is kept to the end: no step's search finds a shorter episode."""
@@ -130,6 +133,7 @@ def test_the_team_keeps_the_opening_rollout_plan_while_no_search_beats_it():
     assert opened < searched - 1.0
 
 
+@pytest.mark.slow
 def test_with_a_precedence_margin_the_team_keeps_only_episodes_that_leave_it():
     """lab_4r's optimum under the step rules, 25.99 s, reaches a successor 0.23 s after its
     predecessor's finish: legs that run late (stock navigation) break its order. With a margin of
@@ -159,6 +163,7 @@ def test_alternatives_zero_and_one_orientation_is_the_actor_alone():
     assert episode(scenario, in_process_team(policy, lookahead)).makespan == pytest.approx(alone.makespan)
 
 
+@pytest.mark.slow
 def test_evaluate_method_lookahead(tmp_path, capsys):
     out = tmp_path / "eval.json"
     assert evaluate_main(["--method", "policy,lookahead", "--policy", "generalist", "--scenario",
@@ -185,6 +190,7 @@ def test_lookahead_needs_a_set_actor(tmp_path, capsys):
     assert not (tmp_path / "e.json").exists()
 
 
+@pytest.mark.slow
 def test_every_robot_finds_the_same_step_and_one_searches_again_around_a_robot_that_did_not():
     """The robots search alike, so the second in turn answers its part of the first's joint action;
     told that the first took that very task instead, it searches again with that choice fixed

@@ -150,6 +150,8 @@ def stock_map_server() -> bool:
     return "map_server" in known and "marl_mrta" in known
 
 
+@pytest.mark.ros
+@pytest.mark.slow
 def test_png_maps_are_read_as_stock_map_server_reads_them(tmp_path):
     if not stock_map_server():
         pytest.skip("stock navigation not available (no map_server package; make stock-nav)")

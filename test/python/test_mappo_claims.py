@@ -117,6 +117,7 @@ def test_training_never_gives_a_task_twice_in_a_step(tmp_path):
 
 
 @pytest.mark.parametrize("actor,turn_order", [("mlp", "index"), ("set", "index"), ("set", "nearest_ready")])
+@pytest.mark.slow
 def test_team_actor_and_per_robot_actors_decide_alike(tmp_path, actor, turn_order):
     """act_team (evaluation) and the robots' own actors, asked in turn with the claimed tasks
     (DecentralisedPolicy), give the same episodes; an actor file keeps the claim rules and the

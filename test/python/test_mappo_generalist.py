@@ -40,7 +40,7 @@ def test_the_name_generalist_stands_for_the_shipped_set_actor():
 @pytest.mark.parametrize("name", ["lab_2r", "lab_4r"])
 def test_zero_shot_on_the_lab_is_the_optimum(name):
     """Without training on the scenario (the lab scenarios are among the generalist's training
-    scenarios), its greedy schedule is the proven optimum. lab_3r: 1.024 (docs/mappo.md)."""
+    scenarios), its greedy schedule is the proven optimum. lab_3r: 1.024 (docs/guide/training.md)."""
     shot = zero_shot(load_policy("generalist"), load_scenario(SCENARIOS / f"{name}.xml"), "finished")
     assert shot["makespan"] == pytest.approx(optimum(name), abs=1e-6)
 
@@ -87,6 +87,7 @@ def test_evaluate_acts_under_the_mask_the_actor_was_trained_with(tmp_path, capsy
 
 
 @pytest.mark.parametrize("name", ["lab_2r", "lab_3r"])
+@pytest.mark.slow
 def test_fine_tuning_the_generalist_reaches_the_optimum_on_the_lab(name, tmp_path, capsys):
     """train --init generalist (the finetune preset, here 10 s of wall time): a new run from the
     shipped weights whose kept actor schedules the scenario at its proven optimum. lab_3r's
@@ -104,6 +105,7 @@ def test_fine_tuning_the_generalist_reaches_the_optimum_on_the_lab(name, tmp_pat
     assert shot["makespan"] == pytest.approx(optimum(name), abs=1e-6)
 
 
+@pytest.mark.slow
 def test_train_without_a_preset_fine_tunes_the_generalist(tmp_path, capsys):
     """train's default on the embedded backend is the finetune preset from the shipped generalist
     (a set actor that acts under the finished mask); --init none keeps the tuned preset's MLP actor."""

@@ -3,6 +3,8 @@ policy loaded from the written actor file must reach a mean makespan within 10 %
 proven optimum of the exact solver."""
 from pathlib import Path
 
+import pytest
+
 from marl_mrta.apps.bench_mappo import exact_plan
 from marl_mrta.evaluation.training import greedy_episodes, on_new_env
 from marl_mrta.mappo.config import load_config, resolve_preset
@@ -25,6 +27,7 @@ def greedy_mean_makespan(policy, make_env, exact):
     return mean_makespan
 
 
+@pytest.mark.slow
 def test_tuned_mappo_learns_lab_2r_within_10_percent_of_exact(tmp_path):
     config = load_config(resolve_preset("tuned"))
     make_env = embedded_factory(SCENARIO, config)
@@ -41,6 +44,7 @@ def test_tuned_mappo_learns_lab_2r_within_10_percent_of_exact(tmp_path):
     assert mean_makespan <= 1.10 * exact
 
 
+@pytest.mark.slow
 def test_sequential_mappo_learns_lab_4r_within_5_percent_of_exact(tmp_path):
     """Four robots: the `sequential` preset (robots decide in turn, each seeing the claimed tasks;
     a training reward that follows the makespan) finds the optimum, which sends two robots to B

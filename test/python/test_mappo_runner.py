@@ -182,6 +182,7 @@ def _write_preset(tmp_path, **overrides):
     return path
 
 
+@pytest.mark.slow
 def test_killed_train_resumes_from_its_last_checkpoint(tmp_path):
     preset = _write_preset(tmp_path, total_env_steps=24 * 60, checkpoint_every=2)
     out = tmp_path / "run"
@@ -213,6 +214,7 @@ def _train(arguments, cwd):
                           capture_output=True, text=True, timeout=120)
 
 
+@pytest.mark.slow
 def test_bad_input_to_train_is_one_line(tmp_path):
     bad = tmp_path / "bad.yaml"
     bad.write_text("gama: 0.9\n")

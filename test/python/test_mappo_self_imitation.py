@@ -59,6 +59,7 @@ def test_the_best_offered_episode_is_taught_until_the_greedy_policy_takes_it():
     assert greedy_makespan(actor, settings, LAB_4R) == pytest.approx(plan.makespan, rel=1e-9)
 
 
+@pytest.mark.slow
 def test_a_run_with_self_imitation_evaluates_the_episode_it_imitated_and_checkpoints_it(tmp_path):
     """From new weights on lab_2r: the run imitates a sampled episode shorter than its greedy
     ones, and the next greedy evaluation is at most that long; the checkpoint keeps the episode."""
@@ -119,6 +120,7 @@ def test_the_ga_teacher_offers_its_schedule_and_its_time_counts(tmp_path):
                                                                 abs=0.01)
 
 
+@pytest.mark.slow
 def test_the_reference_teacher_offers_the_best_known_plan_the_in_turn_decision_can_take(tmp_path):
     """teacher: reference offers evaluate's reference plan (lab_4r's proven optimum). On lab_3r
     that plan sends a robot to a task whose predecessor a robot after it in the turn order takes:
@@ -139,6 +141,7 @@ def test_the_reference_teacher_offers_the_best_known_plan_the_in_turn_decision_c
     assert runner.self_imitation.best_seed == 0 and "a schedule of 37.10 s offered" in lines[0]
 
 
+@pytest.mark.slow
 def test_a_reference_teacher_held_to_a_budget_is_never_longer_than_the_ga(tmp_path):
     """teacher_seconds holds the reference's solvers to a budget (BaselineSettings.within); the GA's
     plan is among its candidates, so a budget too small for CP-SAT to match it still offers it (site_8r:

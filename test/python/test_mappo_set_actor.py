@@ -417,6 +417,7 @@ def test_imitating_a_plan_reproduces_it(imitated_lab_4r):
 
 
 
+@pytest.mark.slow
 def test_train_generalist_stages_on_the_lab(tmp_path):
     """scripts/train_generalist's stages on lab_2r and lab_4r: cached teacher plans, imitation,
     then MAPPO across both scenarios from the imitated actor, checked on them."""

@@ -46,6 +46,7 @@ def test_tasks_launch_runs_the_scenarios_robots(nav):
     assert not [n for n in nodes if n.startswith("/tb3_")]
 
 
+@pytest.mark.slow
 def test_sim_launch_without_names_keeps_tb3_and_rviz_gets_the_names():
     config = roslaunch.config.load_config_default(
         [(os.path.join(REPO, "launch", "sim.launch"), ["roslaunch", "robots:=2", "nav:=builtin", "rviz:=true"])],

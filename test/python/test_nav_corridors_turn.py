@@ -3,12 +3,14 @@ there), in lock-step: deterministic and without the stock stack. The robot rever
 bottom corridor and turns round the wall end at (5.0, 1.0) into the corridor above. While the
 built-in navfn put its path points on cell centres, half a cell north-east of stock navfn's (cell
 corners), DWA turned early, stood under the wall end and timed out at 120 s; stock in lock-step
-reaches the goal in 49-55 s (docs/navigation.md, "Built-in against stock")."""
+reaches the goal in 49-55 s (docs/guide/navigation.md)."""
 import pytest
 
 pytest.importorskip("rospkg", reason="ROS not available")
 bench = pytest.importorskip("marl_mrta.apps.bench_nav_vs_stock")
 from marl_mrta.evaluation.nav_comparison import MAX_RATIO_GOAL, Leg  # noqa: E402
+
+pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
 ROUND_THE_WALL_END = Leg((1.575, 0.525, 2.5385), (0.325, 1.675, -1.1669), 600763903)
 #: s of sim time stock move_base takes in lock-step (the slowest of four runs).

@@ -87,7 +87,7 @@ def test_builtin_and_stock_get_the_same_parameters():
     assert builtin_nodes["/tb3_1/move_base"].package == "marl_mrta"
     assert builtin_nodes["/tb3_1/fake_localization"].package == "marl_mrta"
     # ... but for fake_localization's post-dating of map -> odom: 0 keeps the built-in lock-step
-    # lookups exact; stock move_base needs the stock default 0.1 s (docs/navigation.md).
+    # lookups exact; stock move_base needs the stock default 0.1 s (docs/guide/navigation.md).
     tolerance = "/tb3_1/fake_localization/transform_tolerance"
     assert (builtin.pop(tolerance), stock.pop(tolerance)) == (0.0, 0.1)
     assert builtin == stock
@@ -117,6 +117,7 @@ def test_nav_launch_stock_runs_one_map_server_for_all_robots():
 @pytest.mark.parametrize("launch_args", [["launch/evaluate.launch", "method:=exact"],
                                          ["launch/evaluate.launch", "method:=policy", "policy:=/tmp/actor.pt"],
                                          ["launch/execute.launch", "policy:=/tmp/actor.pt"]])
+@pytest.mark.slow
 def test_evaluation_launch_files_pass_navigation_lockstep_and_noise_on(launch_args):
     nodes, params = load(*launch_args)
     # Defaults: built-in (a nodelet in the simulator's manager), lock-step, ideal.
@@ -152,6 +153,7 @@ def test_evaluation_launch_files_pass_navigation_lockstep_and_noise_on(launch_ar
     assert not any(name.endswith("/stock_lockstep") for name in nodes)
 
 
+@pytest.mark.slow
 def test_nodelets_put_the_simulator_and_every_builtin_move_base_in_one_manager():
     nodes, params = load("launch/tasks.launch", "arenas:=2")
     assert nodes["/sim_manager"].package == "nodelet" and nodes["/sim_manager"].args == "manager"
@@ -210,6 +212,7 @@ def test_project_parameter_files_keep_turtlebot3_values(name):
         assert yaml.safe_load(a) == yaml.safe_load(b)
 
 
+@pytest.mark.slow
 def test_simulator_localization_replaces_the_fake_localization_nodes():
     nodes, params = load("launch/tasks.launch", "arenas:=2")   # the default
     assert params["/simulator/publish_localization"] is True

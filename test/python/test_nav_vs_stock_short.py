@@ -16,6 +16,8 @@ rospkg = pytest.importorskip("rospkg", reason="ROS not available")
 bench = pytest.importorskip("marl_mrta.apps.bench_nav_vs_stock")
 from marl_mrta.evaluation.nav_comparison import MAX_RATIO_GOAL  # noqa: E402
 
+pytestmark = [pytest.mark.ros, pytest.mark.wallclock]
+
 SHORT_MAPS = ("lab", "pillars")
 CONFIRM_REPEATS = 3   # the benchmark's default: a leg's time is the median of three drives
 

@@ -94,6 +94,7 @@ def test_the_reference_keeps_only_bounds_that_hold_under_the_hold():
     assert paper.plan.makespan == pytest.approx(8.1) and paper.lower_bound > 5.1
 
 
+@pytest.mark.slow
 def test_a_heuristic_under_the_hold_keeps_its_plan_of_the_paper_rules_when_that_is_shorter():
     """Seed 0 of the GA finds 37.38 s on lab_3r under the hold, 37.10 s under the paper's rules."""
     from marl_mrta.baselines.plan import under_either_rules
@@ -109,6 +110,7 @@ def test_a_heuristic_under_the_hold_keeps_its_plan_of_the_paper_rules_when_that_
 
 
 @pytest.mark.parametrize("scenario, paper_optimum, held_optimum", [("lab_2r", 48.04, 48.04), ("lab_3r", 37.10, 34.81)])
+@pytest.mark.slow
 def test_evaluate_plans_for_the_hold_it_runs_under(tmp_path, scenario, paper_optimum, held_optimum):
     """lab_3r's optimum is 2.29 s shorter when a robot may wait at a successor; every episode keeps
     the order and ends at the plan's makespan (ideal noise)."""
@@ -138,6 +140,7 @@ def test_the_bound_kept_under_the_hold_is_below_the_holds_optimum(case):
     assert reference.lower_bound <= optimum + 1e-6 <= reference.plan.makespan + 2e-6
 
 
+@pytest.mark.slow
 def test_mappo_trains_under_the_hold_and_its_actor_sends_a_robot_ahead(tmp_path, capsys):
     """`--set hold_successors=true`: the run's environments hold, and the teacher plans for it
     (here the reference: lab_3r's 34.81 s, in which R2 waits at B2). Without the hold the same

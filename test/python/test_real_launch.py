@@ -67,6 +67,7 @@ def params_of(launch_file, *args):
         [(os.path.join(REPO, "launch", launch_file), ["roslaunch", "nav:=builtin", *args])], None, verbose=False).params
 
 
+@pytest.mark.slow
 def test_lookahead_reaches_every_actor_node_with_the_managers_hold_and_a_longer_choice_wait():
     """real.launch lookahead:=true: each robot's actor looks ahead under the rule the task manager
     runs (real robots hold a successor reached early) and the plans' precedence margin;

@@ -60,6 +60,7 @@ def test_a_budget_of_one_play_out_is_the_actor_alone():
     assert plan.makespan == pytest.approx(plan.details["greedy_makespan"], abs=1e-9)
 
 
+@pytest.mark.slow
 def test_the_turned_floor_finds_the_optimum_the_floor_as_it_is_misses():
     """The generalist reads the floor through offsets in the map's axes alone; on the floor turned
     by 180 degrees its rollout takes the optimum that its rollout on the floor as it is misses."""

@@ -142,6 +142,7 @@ def test_exact_plan_replays_in_the_environment_to_its_makespan(lab_2r):
     assert record.robot_task_lists() == plan.robot_tasks
 
 
+@pytest.mark.slow
 def test_ga_reaches_the_exact_optimum_on_lab_2r_in_9_of_10_seeds(lab_2r):
     env, inst = lab_2r
     optimum = solve_exact(inst).makespan
@@ -156,6 +157,7 @@ def test_the_ga_hill_climb_trades_two_robots_last_stages():
     assert join([[0, 1, 4, 5], [2, 3, 6, 7]]) in set(_neighbours(crossed))
 
 
+@pytest.mark.slow
 def test_the_ga_final_search_finds_optima_a_short_evolution_misses():
     """After a short evolution (8 chromosomes, 3 generations) the iterated local search reaches the
     proven optimum of random 3-robot, 8-task instances from 23 of 40 (instance, seed) pairs; a

@@ -212,6 +212,7 @@ def test_reference_serves_the_lab_with_astar_proven(lab):
     assert reference.best_source == "astar" and reference.lower_bound == reference.best_makespan
 
 
+@pytest.mark.slow
 def test_reference_serves_a_larger_team_with_cpsat():
     settings = load_baseline_settings().with_cpsat(time_limit=1.0)
     larger = random_instance(random.Random(3), 6, 14)
@@ -233,6 +234,7 @@ def test_reference_falls_back_to_cpsat_when_astar_stops():
     assert_replays(inst, reference.plan)
 
 
+@pytest.mark.slow
 def test_plans_send_one_robot_per_goal():
     """Two robots sent to one goal in a step: the second finds the first standing there. Under
     short goal timeouts robots reach far goals over other goals, where they would meet."""

@@ -125,6 +125,7 @@ def _address_space_4_gb():
     resource.setrlimit(resource.RLIMIT_AS, (4 << 30, 4 << 30))
 
 
+@pytest.mark.slow
 def test_evaluate_finishes_16_robots_and_32_tasks_within_4_gb_of_address_space(tmp_path):
     """Every method's schedule and the reference's bound on site_16r, the process limited to a
     4 GB address space (a solver that outgrew its budget would be killed or fail to allocate)."""
@@ -149,6 +150,7 @@ def test_evaluate_finishes_16_robots_and_32_tasks_within_4_gb_of_address_space(t
     assert {e["summary"]["method"] for e in data["results"]} == {"random", "ga", "auction", "exact"}
 
 
+@pytest.mark.slow
 def test_a_precedence_margin_keeps_every_plan_in_order_by_that_much(tmp_path, capsys):
     """lab_4r's optimum leaves 0.67 s between B1's (B3's) finish and B2's (B4's) arrival; with a
     1 s margin every planner keeps at least 1 s there, at a longer makespan."""

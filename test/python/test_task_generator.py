@@ -131,6 +131,7 @@ def generated(tmp_path_factory, travel_model):
     return scenarios
 
 
+@pytest.mark.slow
 def test_every_method_completes_every_generated_scenario(generated):
     settings = load_baseline_settings().with_cpsat(time_limit=1.0)
     for scenario in generated:

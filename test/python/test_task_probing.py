@@ -35,6 +35,7 @@ def test_a_cap_is_infeasible_exactly_below_the_relaxations_optimum(kind):
     assert "\n" not in below.status + at.status and "infeasible" in below.status
 
 
+@pytest.mark.slow
 def test_probed_bound_is_never_above_the_optimum_and_mostly_meets_it():
     """From the asynchronous bound up to the auction's makespan: never above the A* optimum (a
     cap proven infeasible that a plan meets fails here), and at the optimum on most instances

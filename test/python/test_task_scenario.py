@@ -1,4 +1,4 @@
-"""Scenario files: the shipped lab scenarios are what docs/task_allocation.md says, and every
+"""Scenario files: the shipped lab scenarios are what docs/guide/evaluation.md says, and every
 malformed fixture (test/data/scenarios/) gives its one-line error naming file, element and
 problem, also through the `evaluate` command (exit 2, no traceback)."""
 import math
