@@ -1,4 +1,4 @@
-# Simulator: ROS-free core (marl_mrta_sim_core) + the `simulator` node (docs/simulator.md).
+# Simulator: ROS-free core (marl_mrta_sim_core) + the `simulator` node (docs/reference/nodes_sim_nav.md).
 add_library(${PROJECT_NAME}_sim_core
   src/sim/diff_drive.cpp
   src/sim/lidar.cpp

@@ -85,7 +85,7 @@ int main(int argc, char** argv) {
     nav::loadYamlFileInto(tree, argv[2], "");
     const AmclConfig config = readAmclConfig(nav::ParamNode(tree, "amcl"));
     ScanSource scans(occupancy);
-    // A round of the lab (docs/navigation.md), odometry without drift: the cost does not depend on it.
+    // A round of the lab (docs/guide/navigation.md), odometry without drift: the cost does not depend on it.
     const std::vector<Pose2D> round = path({{0.5, 0.5, 0}, {2.8, 0.6, 0}, {2.8, 2.5, 0}, {4.3, 2.5, 0}, {4.3, 4.4, 0},
                                             {6.4, 4.4, 0}, {6.4, 0.6, 0}, {4.3, 0.6, 0}});
     std::vector<double> map_ms;

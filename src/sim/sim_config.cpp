@@ -178,7 +178,7 @@ SimConfig readSimConfig(const ParamNode& params) {
   for (auto& [name, noise] : readNoiseProfiles(params.child("noise_profiles"))) config.noise_profiles[name] = noise;
 
   const std::vector<std::string> unknown = params.unreadKeys();
-  if (!unknown.empty()) throw ParamError(unknown.front(), "unknown parameter (see docs/simulator.md for the list)");
+  if (!unknown.empty()) throw ParamError(unknown.front(), "unknown parameter (see docs/reference/nodes_sim_nav.md for the list)");
   return config;
 }
 

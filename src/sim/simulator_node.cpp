@@ -1,5 +1,5 @@
-// The `simulator` node: see docs/simulator.md. With ~stand_in true it is the hardware stand-in
-// (docs/simulator.md, "Hardware stand-in"): the same world shown as TurtleBot3 Burgers on wall time.
+// The `simulator` node: see docs/reference/nodes_sim_nav.md. With ~stand_in true it is the hardware stand-in
+// (docs/guide/real_robots.md): the same world shown as TurtleBot3 Burgers on wall time.
 #include <ros/ros.h>
 
 #include "marl_mrta/sim/simulator_ros.h"

@@ -3,7 +3,7 @@
 
 Runs launch/execute.launch policy:=generalist lookahead:=true for one episode against the running
 simulator, navigation and task manager (lock-step). The generalist alone takes 40.20 s there and
-the exact plan 38.90 s (docs/mappo.md); each robot's node, looking ahead from its own
+the exact plan 38.90 s (docs/guide/training.md); each robot's node, looking ahead from its own
 observation and opening with the actor's rollout plan, which each node makes alike, must take
 another task than its actor at least once and finish every task in precedence order within a tick
 of the exact plan's time.

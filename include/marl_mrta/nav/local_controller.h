@@ -49,7 +49,7 @@ class LocalController {
   // oscillation flags. dwa_local_planner resets them with every plan. Here a re-plan keeps them:
   // this move_base re-plans in step with its control cycles (every second cycle at TurtleBot3's
   // 5 Hz planner and 10 Hz controller), so a forward/backward dither of two cycles had its flags
-  // cleared every time and never ended (docs/navigation.md, "Built-in against stock").
+  // cleared every time and never ended (docs/guide/navigation.md).
   void setPlan(const std::vector<Pose2D>& global_plan, PlanUpdate update);
   // A new goal: forget the stop-and-rotate phase of the previous one.
   void startGoal();

@@ -22,7 +22,7 @@ struct SimConfig {
   int arenas = 1;
   // The robots' names (namespaces within an arena), as many as `robots`; empty: tb3_0 ...
   std::vector<std::string> robot_names;
-  std::vector<Pose2D> start_poses = {   // docs/architecture.md; the first `robots` are used
+  std::vector<Pose2D> start_poses = {   // docs/design.md; the first `robots` are used
       {0.5, 0.5, 0.0}, {0.5, 4.5, 0.0}, {6.5, 0.5, M_PI}, {6.5, 4.5, M_PI}};
   double physics_rate = 20.0;           // [Hz] >= 20
   double scan_rate = 5.0;               // [Hz] LDS-01

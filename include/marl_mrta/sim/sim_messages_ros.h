@@ -1,4 +1,4 @@
-// Core state -> ROS messages for the simulator node (frame ids per docs/architecture.md).
+// Core state -> ROS messages for the simulator node (frame ids per docs/design.md).
 #pragma once
 
 #include <ros/time.h>

@@ -1,5 +1,5 @@
 // The `simulator` node's ROS interface around one World: topics, tf, /clock, services,
-// real-time pacing and the lock-step protocol (docs/architecture.md, docs/simulator.md).
+// real-time pacing and the lock-step protocol (docs/design.md, docs/reference/nodes_sim_nav.md).
 #pragma once
 
 #include <ros/callback_queue.h>

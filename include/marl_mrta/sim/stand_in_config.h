@@ -1,4 +1,4 @@
-// The hardware stand-in's own settings (docs/simulator.md, "Hardware stand-in"): which Burgers
+// The hardware stand-in's own settings (docs/guide/real_robots.md): which Burgers
 // this process plays, how its messages are timed like TurtleBot3's bringup, where the ground
 // truth goes (a file, never a topic). ROS-free: read from the same parameter tree as SimConfig.
 #pragma once

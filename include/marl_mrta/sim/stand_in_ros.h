@@ -1,4 +1,4 @@
-// The hardware stand-in (`simulator` with ~stand_in true, docs/simulator.md "Hardware stand-in"):
+// The hardware stand-in (`simulator` with ~stand_in true, docs/guide/real_robots.md):
 // the simulator's World shown to the graph as a fleet of TurtleBot3 Burgers running TurtleBot3's
 // bringup (turtlebot3_core + the LDS-01 driver), per robot in its namespace, on wall time.
 // No /clock, no ground truth topic, no map -> odom, no services: only what a Burger shows.

@@ -1,7 +1,7 @@
 """Robot namespaces. A scenario's robot ids are its robots' ROS namespaces, in simulation as on
 the robots (tasks.launch hands them to the simulator). Where no names are given (sim.launch
 alone, generated scenarios) robot i is tb3_i, TurtleBot3's multi_robot_name convention; with
-several arenas robot r of arena k is arena_k/r (docs/simulator.md)."""
+several arenas robot r of arena k is arena_k/r (docs/reference/nodes_sim_nav.md)."""
 from __future__ import annotations
 
 from typing import List, Sequence, Union

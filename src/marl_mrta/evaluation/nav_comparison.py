@@ -28,7 +28,7 @@ from marl_mrta.model.scenario import footprint_radius
 
 Pose = Tuple[float, float, float]
 
-#: The acceptance goals (docs/navigation.md, "Built-in against stock").
+#: The acceptance goals (docs/guide/navigation.md).
 MEDIAN_RATIO_GOAL = 1.05
 MAX_RATIO_GOAL = 1.5
 STACKS = ("builtin", "stock")

@@ -85,4 +85,4 @@ def offer_teacher_plan(runner: Runner, log: Callable[[str], None] = print) -> No
         refused.append(f"step {outside + 1} of its {plan.makespan:.2f} s schedule is not one the in-turn decision "
                        f"({runner.config.decision_order}, turn order {runner.config.turn_order}) can take;")
     log(f"teacher {runner.config.teacher}: {' '.join(refused)} nothing offered (decision_order sequential leaves out "
-        "fewer plans: docs/mappo.md)")
+        "fewer plans: docs/guide/training.md)")

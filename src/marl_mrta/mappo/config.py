@@ -45,7 +45,7 @@ def setting(default: Any, doc: str, low: Optional[float] = None, high: Optional[
 @dataclass(frozen=True)
 class MappoConfig:
     """MAPPO settings. Defaults are the paper's (Table 7, no action masks, its reward); the
-    `tuned` preset changes what docs/mappo.md measures."""
+    `tuned` preset changes what docs/guide/training.md measures."""
 
     # Data collection
     n_envs: int = setting(8, "environment instances stepped together (the paper's 8 threads)", low=1)

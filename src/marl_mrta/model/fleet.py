@@ -2,7 +2,7 @@
 
 Robots driving at once meet on their way, and a robot's lidar then puts the other robot into its
 own footprint's cells: move_base discards every velocity and runs its recovery behaviors
-(docs/real_robots.md). One at a time, each robot drives among robots that stand still, which
+(docs/guide/real_robots.md). One at a time, each robot drives among robots that stand still, which
 its costmaps see as obstacles and plan round. A robot waits while another robot still stands on
 its start pose (their footprints would overlap there: model/scenario.footprint_spacing); robots
 that block each other's start poses in a cycle drive together, as the last group.

@@ -258,7 +258,7 @@ def scenario_xml(name: str, map_file: str, robots: Sequence[Tuple[float, float, 
                  tasks: Sequence[Tuple[str, str, Tuple[float, float, float], float]],
                  preds: Sequence[Sequence[int]], timeout: float, nav: Tuple[float, float, float],
                  comment: str = "", navigation: Optional[str] = None) -> str:
-    """The text of a scenario file (docs/task_allocation.md, "Scenario files")."""
+    """The text of a scenario file (docs/reference/scenario_format.md)."""
     lines = ['<?xml version="1.0"?>']
     if comment:
         lines.append(f"<!-- {comment} -->")

@@ -4,7 +4,7 @@ Given what each robot was told to do and what its navigation did (arrival or not
 long), decide who finished which task, whether each attempt respected the precedence, how long
 the step lasted and how long each robot waited. Times are relative to the start of the step.
 
-Rules (docs/task_allocation.md, "Step rules"):
+Rules (docs/guide/evaluation.md):
 - A task is finished by the first robot to arrive at its goal (ties: lower robot index), if it
   was not finished before and its service time ends within the episode's time limit. Another
   robot arriving there later finishes nothing (wasted trip, never a double finish).

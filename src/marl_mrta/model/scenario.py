@@ -1,6 +1,6 @@
 """Scenario files (the paper's scheduler XML): robots, tasks, precedence, timing, reward overrides.
 
-The format is documented in docs/task_allocation.md ("Scenario files"). `load_scenario(path)`
+The format is documented in docs/reference/scenario_format.md. `load_scenario(path)`
 validates everything it reads and raises ScenarioError whose text is one line naming the file,
 the element and the problem; command-line tools print it and exit non-zero. Beyond the format:
 robots whose start footprints overlap, task goals closer than a robot's footprint, a task that

@@ -137,7 +137,7 @@ def cached_travel_table(map_path: str, poses: Sequence[Tuple[float, float, float
 
 def suggest_nav_thresholds(table: TravelTable, n_robots: int) -> Tuple[float, float, float]:
     """t_min, t_avg, t_max for a scenario from its nominal legs (start -> task, task -> task):
-    t_min = shortest leg, t_avg = mean leg, t_max = 1.5 × longest leg (docs/task_allocation.md)."""
+    t_min = shortest leg, t_avg = mean leg, t_max = 1.5 × longest leg (docs/guide/evaluation.md)."""
     n = table.n_nodes
     legs = [table.nominal_time[a, b] for a in range(n) for b in range(n_robots, n) if a != b]
     return (math.floor(min(legs) * 2.0) / 2.0, round(float(np.mean(legs)), 1),

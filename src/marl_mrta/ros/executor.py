@@ -176,7 +176,7 @@ class RosExecutor:
     def _relocalise(self) -> None:
         """Tells every robot's amcl its reset pose, then lets sim time run (the robots stand still)
         until each amcl_pose agrees with it. amcl answers on wall time, so the ticks this takes
-        vary from run to run: episodes with amcl repeat only up to that (docs/navigation.md)."""
+        vary from run to run: episodes with amcl repeat only up to that (docs/guide/navigation.md)."""
         for link, start in zip(self.localizers, self._starts):
             link.reinitialise(start)
         s = self.settings

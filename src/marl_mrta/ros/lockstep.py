@@ -1,4 +1,4 @@
-"""The controller side of the simulator's lock-step protocol (docs/simulator.md).
+"""The controller side of the simulator's lock-step protocol (docs/reference/nodes_sim_nav.md).
 
 For every /simulator/tick the controller publishes its commands for that tick on each
 robot's cmd_vel, then one marl_mrta/LockstepAck per robot carrying the number of commands

@@ -60,7 +60,7 @@ class RosExecutorSettings:
 
 @dataclass(frozen=True)
 class RealRobotSettings:
-    """Real mode only (docs/real_robots.md): resets, the operator's go, safe stops."""
+    """Real mode only (docs/guide/real_robots.md): resets, the operator's go, safe stops."""
 
     reset: str = "start"                # start: drive to the scenario's start poses | current: start where they stand
     go: bool = False                    # start each episode without the operator's ~go (unattended)

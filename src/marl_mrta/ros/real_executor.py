@@ -2,7 +2,7 @@
 on wall time. Implements env.executor.Executor beside ros/executor.py (the simulation's), so the
 decision process and every task rule stay the one ROS-free implementation.
 
-What differs from the simulation (docs/real_robots.md): time is the wall clock, no /clock and no
+What differs from the simulation (docs/guide/real_robots.md): time is the wall clock, no /clock and no
 simulator; a reset cannot teleport: every robot drives to its start pose through its move_base,
 one at a time by default (`reset_drive`; `reset: current` takes the poses where they stand
 instead), then the episode waits for the operator's go (~go, or `go: true` unattended). Every

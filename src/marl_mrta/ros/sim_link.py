@@ -1,4 +1,4 @@
-"""The simulator as the ROS executor uses it (docs/simulator.md): pause, step, reset, the
+"""The simulator as the ROS executor uses it (docs/reference/nodes_sim_nav.md): pause, step, reset, the
 lock-step answers of the robots' controllers, ground truth and collision events.
 
 Every service call is bounded in wall time, so a simulator that is gone or hangs raises

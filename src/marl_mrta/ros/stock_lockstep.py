@@ -1,7 +1,7 @@
 """When to answer the simulator's lock-step ticks for a stock move_base (ROS-free; the node is
 apps/stock_lockstep_node.py).
 
-Stock move_base does not take part in the lock-step protocol (docs/simulator.md). Its control
+Stock move_base does not take part in the lock-step protocol (docs/reference/nodes_sim_nav.md). Its control
 loop runs on sim time, though: while it pursues a goal it wakes every control period
 (1 / controller_frequency) counted from the moment it accepted the goal, and publishes one
 cmd_vel. So the robot's velocity command for a control tick is its answer to that tick: the
@@ -20,7 +20,7 @@ particle filter (stock amcl, `localization_tolerance` > 0) every answer also wai
 `command_wait`, until the filter's map -> odom of the latest scan has come (amcl post-dates it
 by its transform_tolerance): at full speed it otherwise falls behind the controller, whose map ->
 odom lookups then fail. The result of a goal is reported on the tick of the result's stamp, as
-the built-in move_base does. What this keeps deterministic, and what not: docs/navigation.md.
+the built-in move_base does. What this keeps deterministic, and what not: docs/guide/navigation.md.
 """
 from __future__ import annotations
 

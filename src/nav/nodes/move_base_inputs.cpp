@@ -55,7 +55,7 @@ void MoveBaseRos::processTicks() {
       last_acked_tick_ = static_cast<int64_t>(tick.tick);
     }
     // Every tick is answered (a re-sent one again); the simulator need not wait for the
-    // answers before the next controller period (docs/simulator.md, lock-step protocol).
+    // answers before the next controller period (docs/reference/nodes_sim_nav.md, lock-step protocol).
     ack_.tick = tick.tick;
     ack_.cmd_vel_count = cmd_vel_count_;
     ack_.goal_end_tick = goal_end_tick_;

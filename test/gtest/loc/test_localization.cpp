@@ -103,7 +103,7 @@ TEST(Localization, TheLabMapIsPointSymmetric) {
 TEST(Localization, GlobalLocalizationOnTheLabEndsAtTheRobotOrItsTwin) {
   // Stock amcl's defaults: with TurtleBot3's (recovery off, a flat laser model, motion noise
   // alpha·δ² of millimetres per update) the spread collapses before it has found the robot in
-  // about one run in five (docs/navigation.md).
+  // about one run in five (docs/guide/navigation.md).
   int at_truth = 0;
   for (int seed = 0; seed < 2 * kSeeds; ++seed) {
     LabDrive lab(seed);

@@ -366,7 +366,7 @@ TEST(Dwa, ARestrictionThatLeavesNoValidSampleIsDropped) {
   // Forward, then backward: only backward is allowed. With a wall right behind the robot no
   // allowed sample is valid; dwa_local_planner's next re-plan would reset the flags, so the
   // planner drops the restriction itself and the next cycle drives forward (before, the robot
-  // stood still until move_base aborted the goal: turtlebot3_world, docs/navigation.md).
+  // stood still until move_base aborted the goal: turtlebot3_world, docs/guide/navigation.md).
   const Pose2D pose{2.0, 1.5, 0.0};
   auto free_room = costmapOf(roomMap(80, 60, {}));
   auto wall_behind = costmapOf(roomMap(80, 60, {{34, 0, 36, 60}}));  // x 1.70-1.80 m

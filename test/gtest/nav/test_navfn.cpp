@@ -103,7 +103,7 @@ TEST(Navfn, PathAvoidsLethalAndInscribedCellsWithTurtlebotInflation) {
 TEST(Navfn, PathPointsSitOnCellCornersAsStockNavfnPlacesThem) {
   // navfn_ros converts the traced cell coordinates as origin + index x resolution: the path's
   // first point is the corner of the start's cell, not its centre. DWA follows this path, and
-  // half a cell decides which side of a wall end it swings (docs/navigation.md).
+  // half a cell decides which side of a wall end it swings (docs/guide/navigation.md).
   auto costmap = costmapOf(wallRoom());
   const CostGrid& grid = costmap->costmap();
   NavfnPlanner planner{NavfnConfig{}};

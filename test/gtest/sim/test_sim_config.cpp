@@ -142,7 +142,7 @@ TEST(SimConfig, WithoutNoiseProfilesOnlyIdealIsKnown) {
 }
 
 TEST(SimConfig, EachBadParameterNamesIt) {
-  EXPECT_EQ(readErrorWith("robts", "3"), "/simulator/robts: unknown parameter (see docs/simulator.md for the list)");
+  EXPECT_EQ(readErrorWith("robts", "3"), "/simulator/robts: unknown parameter (see docs/reference/nodes_sim_nav.md for the list)");
   EXPECT_EQ(readErrorWith("rtf", "fast"), "/simulator/rtf: expected a number, got 'fast'");
   EXPECT_EQ(readErrorWith("rtf", ".inf"), "/simulator/rtf: must be finite");
   EXPECT_EQ(readErrorWith("robots", "2.5"), "/simulator/robots: expected an integer, got '2.5'");
@@ -156,7 +156,7 @@ TEST(SimConfig, EachBadParameterNamesIt) {
             "/simulator/footprint[2]: must be [x, y] (2 numbers, m)");
   EXPECT_EQ(readErrorWith("wheel_radius", "0.0"), "/simulator/wheel_radius: must be positive");
   EXPECT_EQ(readErrorWith("noise_profiles/measured_tb3/pause_rat", "0.1"),
-            "/simulator/noise_profiles/measured_tb3/pause_rat: unknown parameter (see docs/simulator.md for the list)");
+            "/simulator/noise_profiles/measured_tb3/pause_rat: unknown parameter (see docs/reference/nodes_sim_nav.md for the list)");
   EXPECT_EQ(readErrorWith("noise_profiles/measured_tb3/lidar_dropout", "[0.04, 0.02]"),
             "/simulator/noise_profiles/measured_tb3/lidar_dropout: must satisfy 0 <= min <= max <= 1, got [0.04, 0.02]");
   EXPECT_EQ(readErrorWith("noise_profiles/measured_tb3/command_latency", "0.05"),
