@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""rostest: real.launch stand_in:=true on lab_2r, as on real Burgers.
+"""rostest: real.launch stand_in:=true on lab_2r, as on real Burgers, started as the README's "Real
+robots" recipe says (its real.launch line with stand_in:=true, and its go).
 
 1. The stand-in shows per robot what TurtleBot3's bringup starts shows (turtlebot3_core's
    odom, odom -> base_footprint, joint_states, imu, magnetic_field, battery_state and the LDS-01
@@ -19,6 +20,7 @@ import json
 import math
 import os
 import re
+import subprocess
 import sys
 import tempfile
 import threading
@@ -37,7 +39,7 @@ from std_msgs.msg import UInt16
 from tf2_msgs.msg import TFMessage
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from real_test_helpers import ROBOTS, start_real_launch, wait_exit  # noqa: E402
+from real_test_helpers import ROBOTS, readme_recipe, start_real_launch, wait_exit  # noqa: E402
 
 from marl_mrta.apps.train import main as train_main
 from marl_mrta.common.paths import package_root
@@ -114,11 +116,36 @@ class RealStandInTest(unittest.TestCase):
     def setUpClass(cls):
         rospy.init_node("real_test")
 
-    def run_real(self, work, args, episodes=1):
+    def run_real(self, work, args, episodes=1, go=True):
         out = os.path.join(work, "result.json")
-        launch = start_real_launch(["stand_in:=true", "go:=true", "episodes:=%d" % episodes, "nav:=builtin", "out:=" + out,
-                                    "ground_truth_dir:=" + work, *args], os.path.join(work, "launch.log"))
+        launch = start_real_launch(["stand_in:=true", "go:=%s" % str(go).lower(), "episodes:=%d" % episodes, "nav:=builtin",
+                                    "out:=" + out, "ground_truth_dir:=" + work, *args], os.path.join(work, "launch.log"))
         return launch, out
+
+    def readme_first_hour(self):
+        """The README's "Real robots" recipe: the bringup line (on each robot: here the stand-in,
+        whose frames must be the ones that line gives), real.launch's arguments, and the go."""
+        bringup, real, go = readme_recipe("Real robots: the first hour.")
+        namespace = bringup[0].split("=", 1)[1]
+        given = dict(word.split(":=", 1) for word in bringup if ":=" in word)
+        self.assertEqual(given["multi_robot_name"], namespace)
+        frames = bringup_frames(namespace)
+        if frames:
+            self.assertEqual(given["set_lidar_frame_id"], frames["scan"])
+        self.assertEqual(real[:3], ["roslaunch", "marl_mrta", "real.launch"])
+        self.assertEqual(go[:2], ["rosservice", "call"])
+        return real[3:], go
+
+    def give_go(self, go_command, launch, timeout):
+        """The operator's go, as the README has it, once the manager waits for one (after the drive
+        to the start poses); until then the service answers that no episode waits."""
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline and launch.poll() is None:
+            done = subprocess.run(go_command, capture_output=True, text=True, timeout=30)
+            if done.returncode == 0 and "success: True" in done.stdout:
+                return
+            time.sleep(1.0)
+        self.fail("the go was never taken: " + " ".join(go_command))
 
     def read_result(self, launch, out, work, episodes=1):
         code = wait_exit(launch, EPISODE_WALL + (episodes - 1) * NEXT_EPISODE_WALL)
@@ -130,7 +157,8 @@ class RealStandInTest(unittest.TestCase):
     def test_1_the_stand_in_shows_what_the_bringup_shows_and_the_exact_plan_completes(self):
         work = tempfile.mkdtemp(prefix="real_standin_")
         recorder = Recorder()
-        launch, out = self.run_real(work, ["method:=exact"])
+        real_args, go_command = self.readme_first_hour()
+        launch, out = self.run_real(work, real_args, go=False)
         deadline = time.monotonic() + 120.0
         while not all(recorder.messages[(ns, "scan")] for ns in ROBOTS):
             self.assertLess(time.monotonic(), deadline, "no scans from the stand-in")
@@ -144,6 +172,7 @@ class RealStandInTest(unittest.TestCase):
         # The stand-in sends turtlebot3_core's odom -> base_footprint only: map -> odom is amcl's.
         self.assertEqual(stand_in_tf, {(ns + "/odom", ns + "/base_footprint") for ns in ROBOTS})
 
+        self.give_go(go_command, launch, EPISODE_WALL)
         document = self.read_result(launch, out, work)
         self.assertEqual(document["mode"], "real")
         self.assertEqual(document["executor"], "ros")

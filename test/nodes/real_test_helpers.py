@@ -1,6 +1,8 @@
 """Helpers of the real-robot rostests: real.launch as a child launch on the test's master, the
 robots' commands as they travel on cmd_vel, a node's process id."""
 import os
+import re
+import shlex
 import signal
 import subprocess
 import tempfile
@@ -16,6 +18,16 @@ from geometry_msgs.msg import Twist
 from marl_mrta.ros.process_group import stop_process_group
 
 ROBOTS = ("tb3_0", "tb3_1")
+README = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "README.md")
+
+
+def readme_recipe(title):
+    """The command lines (word lists, comments dropped) of the README's code block after the
+    paragraph that starts with `title`: the tests run the recipes as written."""
+    with open(README) as f:
+        block = re.search(re.escape("**%s**" % title) + r".*?```bash\n(.*?)```", f.read(), re.S)
+    assert block, "README.md: no recipe '%s'" % title
+    return [words for words in (shlex.split(line, comments=True) for line in block.group(1).splitlines()) if words]
 
 
 def start_real_launch(args, log_path, env=None):

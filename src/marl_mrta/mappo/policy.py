@@ -13,6 +13,7 @@ from typing import Any, Callable, Dict, Optional, Sequence, Tuple, Union
 import numpy as np
 import torch
 
+from marl_mrta.common.actor_settings import actor_path
 from marl_mrta.common.paths import package_root
 from marl_mrta.env.observation import ORIENTATIONS
 from marl_mrta.mappo.claims import (ClaimRules, actor_input_size, is_sequential, turns_from_rows, with_claims,
@@ -30,7 +31,6 @@ SET_ACTOR_FORMAT = "marl_mrta.mappo.actor/2"
 
 #: Actor files shipped with the package, by the name that stands for them wherever an actor file
 #: is taken (evaluate --policy, execute.launch policy:=, train --init): policies/<name>.pt.
-SHIPPED_POLICIES = ("generalist",)
 
 #: act_team's hook on an in-turn decision: (turn, robot, logits (n_actions,), mask (n_actions,),
 #: claimed (n_tasks,) bool: by the turns before) -> the action to take at that turn, or None for
@@ -44,9 +44,7 @@ class PolicyFileError(ValueError):
 
 def actor_file_path(policy: Union[str, Path]) -> Path:
     """The file an actor reference names: a shipped policy's name (SHIPPED_POLICIES), or a path."""
-    if str(policy) in SHIPPED_POLICIES:
-        return package_root() / "policies" / f"{policy}.pt"
-    return Path(policy)
+    return actor_path(policy, package_root())
 
 
 def atomic_torch_save(obj: Any, path: Union[str, Path]) -> None:

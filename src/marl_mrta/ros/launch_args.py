@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from typing import Optional, Sequence, Union
 
+from marl_mrta.common.actor_settings import actor_path, read_actor_settings
 from marl_mrta.common.config import ConfigError, read_yaml
 from marl_mrta.common.paths import default_config_path, package_root
 from marl_mrta.common.robot_names import name_list
@@ -142,3 +143,15 @@ def real_choices(policy: Optional[str] = None, **values: str) -> bool:
         raise ValueError(f"real.launch: policy:='': method:={acting[0]} needs an actor file: policy:=generalist "
                          f"(the shipped one) or the absolute path of a training run's actor.pt")
     return True
+
+
+def policy_mask(policy: str, method: str = "policy") -> str:
+    """The task manager's action masks for running `policy` (a path or a shipped name): the ones it
+    was trained with, read from its file without torch. Without a policy (a planner), or for a file
+    that cannot be read (rl_manager then says why in one line), `logic`, the tuned preset's."""
+    if method not in ("policy", "lookahead") or not str(policy).strip():
+        return "logic"
+    try:
+        return str(read_actor_settings(actor_path(policy, package_root())).get("action_mask", "none"))
+    except ValueError:
+        return "logic"
