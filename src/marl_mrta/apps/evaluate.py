@@ -15,6 +15,7 @@ line, exit 2.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import os
 import sys
@@ -32,9 +33,9 @@ from marl_mrta.common.config import ConfigError
 from marl_mrta.common.paths import package_root, runs_dir
 from marl_mrta.common.results import write_result
 from marl_mrta.env.factory import EXECUTORS, make_env
-from marl_mrta.env.settings import MASK_MODES
+from marl_mrta.env.settings import DECISION_MODES, MASK_MODES
 from marl_mrta.evaluation.loop import run_episodes
-from marl_mrta.evaluation.policies import LearnedPolicy, PlanPolicy, PolicyLoadError
+from marl_mrta.evaluation.policies import LearnedPolicy, PolicyLoadError, plan_policy
 from marl_mrta.evaluation.lookahead import Lookahead
 from marl_mrta.evaluation.robot_actor import in_process_team
 from marl_mrta.evaluation.rollout import RolloutError, rollout_plan
@@ -67,6 +68,12 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> argparse.Namespace:
                         help="--executor ros: the task manager node (default /rl_task_allocation_manager)")
     parser.add_argument("--profile", default=None,
                         help="embedded noise profile of config/task_embedded.yaml (default: its `profile`)")
+    parser.add_argument("--decision-mode", default=None, metavar="MODE",
+                        help="synchronous (the paper's steps) or event (a robot decides when it comes free) "
+                             "(default: config/task.yaml; --executor ros: the task manager's)")
+    parser.add_argument("--both-references", action=argparse.BooleanOptionalAction, default=True,
+                        help="also plan the other decision mode's reference and print the two side by side "
+                             "(default: yes)")
     parser.add_argument("--mask", default=None, choices=MASK_MODES, help="action masks (default: for --method policy the mask the actor was trained with, "
                         "else config/task.yaml)")
     parser.add_argument("--hold-successors", action="store_true",
@@ -98,6 +105,8 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> argparse.Namespace:
         raise UsageError(f"--method: {', '.join(unknown) or 'nothing given'}: choose from {', '.join(METHODS)}")
     if args.episodes < 1:
         raise UsageError(f"--episodes: must be at least 1, got {args.episodes}")
+    if args.decision_mode is not None and args.decision_mode not in DECISION_MODES:
+        raise UsageError(f"--decision-mode: {args.decision_mode!r} is not one of {', '.join(DECISION_MODES)}")
     needs_actor = [m for m in methods if m in POLICY_METHODS]
     if needs_actor and not args.policy:
         raise UsageError(f"--policy: the {needs_actor[0]} method needs an actor file (--policy path/to/actor.pt)")
@@ -125,6 +134,9 @@ def make_ros_env(args: argparse.Namespace):
         raise UsageError(f"--mask: {args.mask} differs from the task manager's mask ({env.settings.mask})")
     if args.hold_successors and not env.settings.hold_successors:
         raise UsageError("--hold-successors: the task manager runs without it (its hold_successors parameter)")
+    if args.decision_mode and args.decision_mode != env.settings.decision_mode:
+        raise UsageError(f"--decision-mode: {args.decision_mode} differs from the task manager's "
+                         f"({env.settings.decision_mode})")
     if {"policy", "lookahead"} & set(args.methods):
         LearnedPolicy.trained_mask(args.policy, env.settings.mask)
     return env
@@ -229,20 +241,23 @@ def evaluate(args: argparse.Namespace) -> int:
             print(f"evaluate: {args.policy} was trained under hold_successors: the episodes hold", file=sys.stderr)
             args.hold_successors = True
         env = make_env(args.scenario or DEFAULT_SCENARIO, args.executor, profile=args.profile, mask=args.mask,
-                       seed=args.seed, hold_successors=True if args.hold_successors else None)
+                       seed=args.seed, hold_successors=True if args.hold_successors else None,
+                       decision_mode=args.decision_mode)
     scenario = env.scenario
     out = output_path(args, scenario.name)
     settings = load_baseline_settings().with_cpsat(args.time_limit, args.workers)
     margin = settings.precedence_margin if args.precedence_margin is None else args.precedence_margin
     # Plans for the rules the episodes run under: with the hold, robots may be sent ahead to wait.
+    mode = env.settings.decision_mode
     instance = scheduling_instance(scenario, env.settings.min_step, env.settings.goal_timeout, margin,
-                                   env.settings.hold_successors)
+                                   env.settings.hold_successors, mode)
     task_ids = [t.id for t in scenario.tasks]
     plans: Dict[str, Plan] = {m: plan_for(m, instance, settings, args.seed) for m in args.methods if m in ("ga", "auction")}
     if "rollout" in args.methods:
         plans["rollout"] = rollout_for(args, scenario, instance, settings)
 
     reference: Optional[Reference] = None
+    references: Dict[str, Reference] = {}
     if not args.no_exact or "exact" in args.methods:
         if not args.quiet:   # its search can take minutes on a large team, before any robot moves
             print(f"evaluate: planning the reference of {scenario.name} ({scenario.n_robots} robots, "
@@ -252,6 +267,12 @@ def evaluate(args: argparse.Namespace) -> int:
             print(f"  {line}", file=sys.stderr)
         print(reference.describe(), file=sys.stderr)
         plans["exact"] = reference.plan
+        references = {mode: reference}
+        if args.both_references:
+            other = "synchronous" if mode == "event" else "event"
+            references[other] = solve_reference(dataclasses.replace(instance, decision_mode=other), settings)
+            for name in DECISION_MODES:
+                print(f"  {name:<11} {references[name].describe()}", file=sys.stderr)
     best = reference.best_makespan if reference is not None else None
     lower = reference.lower_bound if reference is not None else None
     basis = reference.ratio_basis if reference is not None else "exact"
@@ -272,7 +293,7 @@ def evaluate(args: argparse.Namespace) -> int:
             lookahead = lookahead_for(args, env, settings, margin)
             policy = in_process_team(lookahead.policy, lookahead)
         else:
-            policy = PlanPolicy(plan, env.n_agents, env.n_tasks)
+            policy = plan_policy(plan, env.n_agents, env.n_tasks, mode)
         progress = None if args.quiet else ProgressLine(f"{method} on {scenario.name}")
         started = time.monotonic()
         records = run_episodes(env, policy, args.episodes, args.seed, progress, stop_on_abort=stop_on_abort)
@@ -305,9 +326,11 @@ def evaluate(args: argparse.Namespace) -> int:
         # ros: the simulator's noise profile, which the episodes ran under
         "profile": env.noise_profile if args.executor == "ros" else args.profile or "default",
         "mask": env.settings.mask, "hold_successors": env.settings.hold_successors, "episodes": args.episodes,
+        **({"decision_mode": mode} if mode != "synchronous" else {}),
         "seed": args.seed,
         "exact": plan_json(reference.plan, task_ids) if reference is not None else None,
         "reference": reference.as_dict() if reference is not None else None,
+        **({"references": {name: ref.as_dict() for name, ref in references.items()}} if len(references) > 1 else {}),
         "results": results,
     }
     write_result(out, document)

@@ -33,6 +33,8 @@ class SchedulingInstance:
     it: a robot may be sent to a task whose predecessors finish later in the step (it waits
     there and serves it after them) or in a later step (it stands there unserved until then),
     and the margin is not needed. Every plan of the paper's rules keeps its makespan under it.
+    decision_mode: synchronous (the step rules) or event (robots take the next task of their route
+    when they come free and wait at a task for its predecessors: baselines/event_plan.py).
     """
 
     n_robots: int
@@ -45,6 +47,7 @@ class SchedulingInstance:
     goal_timeout: float = INFINITE_TIME
     precedence_margin: float = 0.0              # s
     hold_successors: bool = False
+    decision_mode: str = "synchronous"
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "travel_rows", np.asarray(self.travel, dtype=float).tolist())
@@ -80,11 +83,12 @@ class SchedulingInstance:
 
     @staticmethod
     def from_scenario(scenario, table, min_step: float, goal_timeout: float = INFINITE_TIME,
-                      precedence_margin: float = 0.0, hold_successors: bool = False) -> "SchedulingInstance":
+                      precedence_margin: float = 0.0, hold_successors: bool = False,
+                      decision_mode: str = "synchronous") -> "SchedulingInstance":
         return SchedulingInstance(scenario.n_robots, scenario.n_tasks, np.array(table.nominal_time),
                                   tuple(t.service_time for t in scenario.tasks), tuple(scenario.predecessors),
                                   min_step, tuple(t.id for t in scenario.tasks), goal_timeout, precedence_margin,
-                                  hold_successors)
+                                  hold_successors, decision_mode)
 
 
 @dataclass
@@ -273,7 +277,11 @@ def next_goals(run: NominalRun, robot_lists: Sequence[Sequence[int]]) -> Optiona
 
 def decode_task_lists(instance: SchedulingInstance, robot_lists: Sequence[Sequence[int]]) -> NominalRun:
     """Joint actions carrying out per-robot ordered task lists (each task in exactly one list),
-    step by step with next_goals, until every task is finished (or no robot can reach the rest)."""
+    step by step with next_goals, until every task is finished (or no robot can reach the rest).
+    In event mode: the lists as routes dispatched on events (baselines/event_plan.py)."""
+    if instance.decision_mode == "event":
+        from marl_mrta.baselines.event_plan import decode_routes   # it builds on this module
+        return decode_routes(instance, robot_lists)
     run = NominalRun(instance)
     # A bound on the steps, so that no list can keep the decoder going: every task is at most
     # n_tasks goals away from any robot and a stalled step moves towards a ready one.
@@ -297,7 +305,7 @@ def under_either_rules(solve: Callable[[SchedulingInstance], Plan], instance: Sc
     and under the paper's rules, which keeps its makespan under the hold: the hold widens the
     search, and a heuristic does not always find the better plans in the wider one."""
     plan = solve(instance)
-    if not instance.hold_successors:
+    if not instance.hold_successors or instance.decision_mode == "event":
         return plan
     paper = solve(dataclasses.replace(instance, hold_successors=False))
     return dataclasses.replace(paper, instance=instance) if paper.usable_makespan < plan.usable_makespan else plan

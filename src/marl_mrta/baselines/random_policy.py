@@ -31,8 +31,29 @@ class RandomPolicy:
 
     def act(self, output: StepOutput) -> List[int]:
         rng = self._rng
+        if output.deciding is not None:
+            return self._act_on_events(output)
         if self.choice == "all":
             return [rng.randrange(self.n_tasks + 1) for _ in range(self.n_agents)]
         open_tasks = [j for j, done in enumerate(output.info.finished) if not done] or [self.n_tasks]
         choice = rng.choice
         return [choice(open_tasks) for _ in range(self.n_agents)]
+
+    def _act_on_events(self, output: StepOutput) -> List[int]:
+        """Event mode: each deciding robot, in index order, picks uniformly among the open tasks no
+        busy robot or earlier decider has (`unfinished`), or among every action (`all`)."""
+        rng = self._rng
+        actions = [self.n_tasks] * self.n_agents
+        taken = {t for t in output.info.robot_tasks if t is not None}
+        for robot, deciding in enumerate(output.deciding):
+            if not deciding:
+                continue
+            if self.choice == "all":
+                actions[robot] = rng.randrange(self.n_tasks + 1)
+                continue
+            own = output.info.robot_tasks[robot]
+            open_tasks = [j for j, done in enumerate(output.info.finished)
+                          if not done and (j not in taken or j == own)] or [self.n_tasks]
+            actions[robot] = rng.choice(open_tasks)
+            taken.add(actions[robot])
+        return actions

@@ -48,9 +48,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional
 
+import numpy as np
 from ortools.sat.python import cp_model
 
-from marl_mrta.baselines.cpsat import BOUND_TIME, CpSatBudget, SolveOutcome, solve
+from marl_mrta.baselines.cpsat import BOUND_TIME, CpSatBudget, SolveOutcome, TimeScale, solve
 from marl_mrta.baselines.plan import Plan, SchedulingInstance, simulate_joint_actions
 
 #: Bytes CP-SAT needs per arc literal of these models, measured and rounded up.
@@ -76,7 +77,8 @@ def arc_count(instance: SchedulingInstance) -> int:
 
 def solve_relaxation(instance: SchedulingInstance, budget: CpSatBudget, kind: str = "asynchronous",
                      hint: Optional[Plan] = None, upper_bound: Optional[float] = None,
-                     known_lower_bound: float = 0.0, makespan_cap: Optional[float] = None) -> RelaxationResult:
+                     known_lower_bound: float = 0.0, makespan_cap: Optional[float] = None,
+                     scale: TimeScale = BOUND_TIME, direct_legs: bool = False) -> RelaxationResult:
     """One relaxation within the budget; `hint` (a complete plan) gives its first solution,
     known_lower_bound (a bound already proven, e.g. the asynchronous one) its least makespan.
 
@@ -86,30 +88,40 @@ def solve_relaxation(instance: SchedulingInstance, budget: CpSatBudget, kind: st
     longer (a plan of makespan M gives a schedule of floor(M) ticks or fewer, so a plan shorter
     than cap + 1 tick would give one within the cap): lower_bound = cap + 1 tick. A schedule
     found gives its routes and its makespan as `optimum` (the relaxation's optimum is at most
-    that), and no bound."""
+    that), and no bound. With `direct_legs` (asynchronous only) legs are the direct ones within
+    the goal timeout, not the quickest chains over other goals: event mode's own schedule
+    (event_plan.py), of which the optimum is then exact, not a relaxation."""
     if kind not in KINDS:
         raise ValueError(f"relaxation kind {kind!r} is not one of {', '.join(KINDS)}")
-    cap = BOUND_TIME.floor(makespan_cap) if makespan_cap is not None else None
+    if kind != "asynchronous" and scale != BOUND_TIME:
+        raise ValueError("only the asynchronous relaxation takes another time scale")
+    cap = scale.floor(makespan_cap) if makespan_cap is not None else None
     if cap is not None:
         # Only plans shorter than cap + 1 tick matter: the step count and the horizon may use that.
-        capped_upper = BOUND_TIME.seconds(cap + 1)
+        capped_upper = scale.seconds(cap + 1)
         upper_bound = capped_upper if upper_bound is None else min(upper_bound, capped_upper)
     n_r, n_t = instance.n_robots, instance.n_tasks
     arcs = arc_count(instance)
     if arcs * BYTES_PER_ARC > budget.memory_mb * 1e6:
         return RelaxationResult(kind, 0.0, None, None, f"{kind} relaxation not built: {arcs} arcs need about "
                                 f"{arcs * BYTES_PER_ARC / 1e6:.0f} MB, over the memory budget of {budget.memory_mb:.0f} MB")
-    chains = instance.chain_times()
+    if direct_legs:   # event mode's own schedule: a robot drives straight to its next task
+        if kind != "asynchronous":
+            raise ValueError("only the asynchronous relaxation takes direct legs")
+        chains = np.where(np.asarray(instance.travel, dtype=float) <= instance.goal_timeout,
+                          np.asarray(instance.travel, dtype=float), np.inf)
+    else:
+        chains = instance.chain_times()
     finite = chains[chains < float("inf")]
-    service = [BOUND_TIME.floor(s) for s in instance.service]
-    horizon = BOUND_TIME.floor(upper_bound) + 1 if upper_bound is not None else \
-        sum(service) + n_t * (BOUND_TIME.floor(float(finite.max())) + BOUND_TIME.floor(instance.min_step)) + 1
+    service = [scale.floor(s) for s in instance.service]
+    horizon = scale.floor(upper_bound) + 1 if upper_bound is not None else \
+        sum(service) + n_t * (scale.floor(float(finite.max())) + scale.floor(instance.min_step)) + 1
 
     model = cp_model.CpModel()
     arrival = [model.NewIntVar(0, horizon, f"arrival_{j}") for j in range(n_t)]
     # When task j's robot may leave it: at its finish (asynchronous) or at its step's end.
     leave = [arrival[j] + service[j] for j in range(n_t)]
-    least = min(BOUND_TIME.floor(known_lower_bound), horizon)
+    least = min(scale.floor(known_lower_bound), horizon)
     makespan = model.NewIntVar(least, max(least, min(horizon, cap)) if cap is not None else horizon, "makespan")
     arc_of: Dict[tuple, cp_model.IntVar] = {}
     steps = None
@@ -128,14 +140,14 @@ def solve_relaxation(instance: SchedulingInstance, budget: CpSatBudget, kind: st
             if first_leg < float("inf"):
                 lit = arc_of[r, -1, j] = model.NewBoolVar(f"first_{r}_{j}")
                 circuit.append((0, j + 1, lit))
-                model.Add(arrival[j] >= BOUND_TIME.floor(float(first_leg))).OnlyEnforceIf(lit)
+                model.Add(arrival[j] >= scale.floor(float(first_leg))).OnlyEnforceIf(lit)
             for i in range(n_t):
                 leg = chains[instance.node(i), instance.node(j)]
                 if i == j or leg == float("inf"):
                     continue
                 lit = arc_of[r, i, j] = model.NewBoolVar(f"arc_{r}_{i}_{j}")
                 circuit.append((i + 1, j + 1, lit))
-                model.Add(arrival[j] >= leave[i] + BOUND_TIME.floor(float(leg))).OnlyEnforceIf(lit)
+                model.Add(arrival[j] >= leave[i] + scale.floor(float(leg))).OnlyEnforceIf(lit)
                 if steps is not None:
                     model.Add(steps.number[j] >= steps.number[i] + 1 + steps.wait[j]).OnlyEnforceIf(lit)
                     if not steps.gaps:
@@ -146,7 +158,7 @@ def solve_relaxation(instance: SchedulingInstance, budget: CpSatBudget, kind: st
     for j in range(n_t):
         model.AddExactlyOne(visits[j])
         reach = min(chains[r, instance.node(j)] for r in range(n_r))
-        model.Add(arrival[j] >= BOUND_TIME.floor(float(reach)))
+        model.Add(arrival[j] >= scale.floor(float(reach)))
         model.Add(makespan >= leave[j])
         for p in instance.predecessors[j]:
             model.Add(arrival[j] >= arrival[p] + service[p])
@@ -171,16 +183,16 @@ def solve_relaxation(instance: SchedulingInstance, budget: CpSatBudget, kind: st
                 route.append(nxt)
                 at = nxt
             routes.append(route)
-        optimum = BOUND_TIME.seconds(outcome.objective if cap is None else max(solver.Value(e) for e in leave))
+        optimum = scale.seconds(outcome.objective if cap is None else max(solver.Value(e) for e in leave))
     if cap is not None:
-        lower = BOUND_TIME.seconds(cap + 1) if outcome.status == "INFEASIBLE" else 0.0
-        state = (f"makespan <= {BOUND_TIME.seconds(cap):.2f} s infeasible" if outcome.status == "INFEASIBLE" else
-                 f"makespan <= {BOUND_TIME.seconds(cap):.2f} s " + (f"feasible ({optimum:.2f} s)" if routes else "not decided"))
+        lower = scale.seconds(cap + 1) if outcome.status == "INFEASIBLE" else 0.0
+        state = (f"makespan <= {scale.seconds(cap):.2f} s infeasible" if outcome.status == "INFEASIBLE" else
+                 f"makespan <= {scale.seconds(cap):.2f} s " + (f"feasible ({optimum:.2f} s)" if routes else "not decided"))
         status = (f"{kind} relaxation ({arcs} arcs): {state}, CP-SAT {outcome.status} "
                   f"after {outcome.deterministic_seconds:.1f} deterministic s")
         return RelaxationResult(kind, lower, optimum, routes, status, outcome, {"arcs": arcs, "cap": cap, **outcome.as_dict()})
     # INFEASIBLE: no schedule at all, so no plan under the step rules either.
-    lower = {"INFEASIBLE": float("inf"), "MODEL_INVALID": 0.0}.get(outcome.status, max(BOUND_TIME.seconds(outcome.bound), 0.0))
+    lower = {"INFEASIBLE": float("inf"), "MODEL_INVALID": 0.0}.get(outcome.status, max(scale.seconds(outcome.bound), 0.0))
     state = "optimal" if outcome.optimal else ("feasible" if routes else "no schedule")
     status = (f"{kind} relaxation ({arcs} arcs): {state}, bound {lower:.2f} s, CP-SAT {outcome.status} "
               f"after {outcome.deterministic_seconds:.1f} deterministic s")

@@ -38,6 +38,9 @@ class StepInfo:
     held_time: List[float] = field(default_factory=list)        # s waited at its task for predecessors
     episode: Optional[EpisodeRecord] = None     # the schedule record, on the episode's last step
     abort_reason: str = ""                      # why the episode was aborted ("" if it was not)
+    # Event mode: per robot, the task it drives to, holds at or serves (None: idle). A policy that
+    # decides in turn takes those of busy robots as claimed.
+    robot_tasks: List[Optional[int]] = field(default_factory=list)
 
 
 @dataclass(**STEP_RECORD)
@@ -52,11 +55,16 @@ class StepOutput:
     truncated: bool                      # episode over: timeout (sim time) or aborted
     action_mask: np.ndarray              # (n_agents, n_actions) bool, True = allowed
     info: StepInfo
+    # (n_agents,) bool: the robots that decide now. None in synchronous mode (every robot, every
+    # step); in event mode the others' actions are ignored (their mask rows allow None alone).
+    deciding: Optional[np.ndarray] = None
 
 
 class TaskAllocationEnv(Protocol):
     """Algorithm 1 of the paper: one decision step = one joint action, robots navigate,
-    the step ends when every robot with a goal has reached it or failed."""
+    the step ends when every robot with a goal has reached it or failed (decision_mode
+    synchronous); or (event) a step ends when a robot comes free, and only the robots in
+    StepOutput.deciding decide at it."""
 
     n_agents: int
     n_actions: int   # number of tasks + 1; the last action index is None (stay idle)

@@ -18,7 +18,7 @@ from typing import List, Optional, Sequence, Set, Tuple
 
 import numpy as np
 
-from marl_mrta.env.executor import RobotOutcome, StepOutcome
+from marl_mrta.env.executor import EventAdvance, LegEnd, RobotOutcome, StepOutcome
 from marl_mrta.model.noise import NoiseProfile
 from marl_mrta.model.travel import TravelTable
 
@@ -40,6 +40,8 @@ class EmbeddedExecutor:
         self._nodes = list(range(n_robots))
         self._in_contact: Set[Tuple[int, int]] = set()
         self.clock = 0.0
+        # Event mode: per robot, its leg under way (end time, goal node, failure) or None.
+        self._legs: List[Optional[Tuple[float, int, str]]] = [None] * n_robots
 
     def reset(self, seed: Optional[int] = None) -> None:
         if seed is not None:
@@ -47,6 +49,7 @@ class EmbeddedExecutor:
         self._nodes = list(range(self.n_robots))
         self._in_contact = set()
         self.clock = 0.0
+        self._legs = [None] * self.n_robots
 
     def place(self, nodes: Sequence[int]) -> None:
         """Stand the robots on these nodes of the table (after reset(): an episode resumed midway)."""
@@ -104,6 +107,32 @@ class EmbeddedExecutor:
 
     def finish_step(self, duration: float) -> None:
         self.clock += duration
+
+    # ------------------------------------------------------------------ event mode
+
+    def dispatch(self, robot: int, task: int) -> None:
+        """The robot leaves its node for the task's now; a leg longer than the goal timeout fails
+        at the timeout, where the robot stays."""
+        goal = self.n_robots + task
+        nav = self.leg_time(self._nodes[robot], goal)
+        failure = ""
+        if nav > self.goal_timeout:
+            nav, failure = self.goal_timeout, "goal timeout"
+        self._legs[robot] = (self.clock + nav, goal, failure)
+
+    def advance(self, until: float) -> EventAdvance:
+        ends = [leg[0] for leg in self._legs if leg is not None]
+        time = min([until] + ends)
+        ended = []
+        for robot, leg in enumerate(self._legs):
+            if leg is not None and leg[0] <= time + 1e-9:
+                end, goal, failure = leg
+                if not failure:
+                    self._nodes[robot] = goal
+                ended.append(LegEnd(robot, not failure, failure))
+                self._legs[robot] = None
+        self.clock = max(self.clock, time)
+        return EventAdvance(self.clock, ended, [0] * self.n_robots)
 
     def poses(self) -> List[Tuple[float, float, float]]:
         node_poses = self.table.node_poses

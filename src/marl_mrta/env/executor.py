@@ -15,6 +15,12 @@ Contract of one step:
 3. `finish_step(duration)`: the executor lets time run to the step's end (an executor on a
    real clock waits out service and idle time; the embedded one only advances its clock).
 A lost simulator or navigation sets `aborted` with a reason; the episode then ends.
+
+Event mode (env/event_env.py) drives legs one robot at a time while the others drive on:
+1. `dispatch(robot, task)`: the robot starts driving to the task now (the executor's clock).
+2. `advance(until)`: time runs until the first leg ends, or until `until` (s since the episode's
+   start) when none ends before; returns that time, the legs that ended then (reached or
+   failed), and each robot's collision events meanwhile. Robots without a leg stand still.
 """
 from __future__ import annotations
 
@@ -41,6 +47,44 @@ class StepOutcome:
     aborted: bool = False
     abort_reason: str = ""
     trajectories: Optional[List[List[Tuple[float, float, float]]]] = field(default=None)  # optional (t, x, y) per robot
+
+
+@dataclass(**STEP_RECORD)
+class LegEnd:
+    """A leg that ended (event mode)."""
+
+    robot: int
+    reached: bool
+    failure: str = ""        # why it did not arrive ("" when it did)
+
+
+@dataclass(**STEP_RECORD)
+class EventAdvance:
+    """What advance() reports (event mode)."""
+
+    time: float                          # s since the episode's start: the first leg end, or `until`
+    legs: List[LegEnd]                   # legs that ended at `time`
+    collisions: List[int]                # per robot, collision events since the last advance
+    aborted: bool = False
+    abort_reason: str = ""
+
+
+class EventExecutor(Protocol):
+    """Moves the robots of one arena leg by leg (event mode); see the module docstring."""
+
+    n_robots: int
+
+    def reset(self, seed: Optional[int] = None) -> None:
+        """Robots back to their start poses; the clock to 0."""
+
+    def dispatch(self, robot: int, task: int) -> None:
+        """The robot starts driving to the task at the current time."""
+
+    def advance(self, until: float) -> EventAdvance:
+        """Run until the first leg ends or `until`."""
+
+    def poses(self) -> List[Tuple[float, float, float]]:
+        """Current (x, y, yaw) of every robot in the map frame."""
 
 
 class Executor(Protocol):

@@ -11,7 +11,8 @@ from marl_mrta.model.reward import RewardConfig
 from marl_mrta.model.travel import TravelTable, nominal_travel_table
 from marl_mrta.env.embedded import EmbeddedExecutor
 from marl_mrta.env.executor import Executor
-from marl_mrta.env.settings import MASK_MODES, load_embedded_settings, load_task_settings
+from marl_mrta.env.event_env import EventTaskEnvironment
+from marl_mrta.env.settings import DECISION_MODES, MASK_MODES, load_embedded_settings, load_task_settings
 from marl_mrta.env.task_env import TaskEnvironment
 
 #: Executors an environment can be built with here (the ROS executor lives with the ROS nodes).
@@ -27,15 +28,18 @@ def make_env(scenario: Union[str, Path, Scenario], executor: Union[str, Executor
              profile: Optional[str] = None, mask: Optional[str] = None, seed: Optional[int] = None,
              reward_config: Optional[Union[str, Path]] = None, task_config: Optional[Union[str, Path]] = None,
              embedded_config: Optional[Union[str, Path]] = None,
-             hold_successors: Optional[bool] = None, precedence_margin: float = 0.0) -> TaskEnvironment:
+             hold_successors: Optional[bool] = None, precedence_margin: float = 0.0,
+             decision_mode: Optional[str] = None) -> Union[TaskEnvironment, EventTaskEnvironment]:
     """An environment on `scenario` (file or loaded Scenario).
 
     executor: "embedded", or an Executor object (e.g. the ROS executor) that moves the robots;
     profile: a noise profile of config/noise_profiles.yaml (default: its `profile`; embedded
     only); mask: none | finished | logic (default: config/task.yaml); hold_successors: the rule
     of model/rules.py (default: config/task.yaml); precedence_margin: s a successor must be
-    reached after its predecessor's finish to count as in order (a model planning with a margin); seed: of the first
-    reset() without a seed. Raises ScenarioError or ConfigError with a one-line message.
+    reached after its predecessor's finish to count as in order (a model planning with a margin); decision_mode:
+    synchronous | event (default: config/task.yaml; event needs an executor with the event interface, or
+    embedded); seed: of the first reset() without a seed. Raises ScenarioError or ConfigError with a
+    one-line message.
     """
     if not isinstance(scenario, Scenario):
         scenario = load_scenario(scenario)
@@ -50,14 +54,19 @@ def make_env(scenario: Union[str, Path, Scenario], executor: Union[str, Executor
         settings = replace(settings, hold_successors=hold_successors)
     if precedence_margin:
         settings = replace(settings, precedence_margin=float(precedence_margin))
+    if decision_mode is not None:
+        if decision_mode not in DECISION_MODES:
+            raise ConfigError(f"decision_mode: {decision_mode!r} is not one of {', '.join(DECISION_MODES)}")
+        settings = replace(settings, decision_mode=decision_mode)
+    environment = EventTaskEnvironment if settings.decision_mode == "event" else TaskEnvironment
     try:
         reward = RewardConfig.load(scenario.nav_thresholds, reward_config, scenario.reward_overrides)
     except ConfigError as error:
         raise ScenarioError(f"{scenario.source}: <reward>: {error}") from None
     if not isinstance(executor, str):
-        return TaskEnvironment(scenario, executor, reward, settings, seed)
+        return environment(scenario, executor, reward, settings, seed)
     embedded = load_embedded_settings(embedded_config)
     table = nominal_travel_table(scenario, embedded.travel)
     runner = EmbeddedExecutor(table, scenario.n_robots, embedded.profile(profile), settings.goal_timeout, seed,
                               embedded.collision_distance, embedded.collision_dt)
-    return TaskEnvironment(scenario, runner, reward, settings, seed)
+    return environment(scenario, runner, reward, settings, seed)

@@ -13,6 +13,7 @@ from marl_mrta.model.robot import load_robot
 from marl_mrta.model.travel import TravelModel
 
 MASK_MODES = ("none", "finished", "logic")
+DECISION_MODES = ("synchronous", "event")
 
 
 @dataclass(frozen=True)
@@ -24,6 +25,7 @@ class TaskSettings:
     # s a successor must be reached after its predecessor's finish in one step to count as in
     # order (model/rules.py's order_margin); not in task.yaml: a model that plans with a margin sets it
     precedence_margin: float = 0.0
+    decision_mode: str = "synchronous"   # synchronous | event (env/task_env.py, env/event_env.py)
 
 
 def load_task_settings(path: Optional[Union[str, Path]] = None) -> TaskSettings:
@@ -31,7 +33,8 @@ def load_task_settings(path: Optional[Union[str, Path]] = None) -> TaskSettings:
     settings = TaskSettings(mask=root.choice("mask", list(MASK_MODES)),
                             min_step=root.number("min_step", minimum=1e-3),
                             goal_timeout=root.number("goal_timeout", minimum=1e-3),
-                            hold_successors=root.boolean("hold_successors", False))
+                            hold_successors=root.boolean("hold_successors", False),
+                            decision_mode=root.choice("decision_mode", list(DECISION_MODES)))
     root.check_all_used()
     return settings
 

@@ -21,7 +21,9 @@ from marl_mrta.env.settings import TaskSettings
 
 
 class TaskEnvironment:
-    """Implements env.api.TaskAllocationEnv for one scenario and one executor."""
+    """Implements env.api.TaskAllocationEnv for one scenario and one executor (synchronous mode)."""
+
+    decision_mode = "synchronous"
 
     def __init__(self, scenario: Scenario, executor: Executor, reward: RewardConfig, settings: TaskSettings,
                  seed: Optional[int] = None):

@@ -59,6 +59,36 @@ class PlanPolicy:
         return [none if g is None else g for g in goals]
 
 
+class EventPlanPolicy:
+    """Carries out a plan's routes in event mode (baselines/event_plan.py): each robot, when it
+    decides, takes the first task of its route that is not finished (a leg that failed is driven
+    again); a robot whose route is done stays idle."""
+
+    def __init__(self, plan: Plan, n_agents: int, n_tasks: int):
+        self.name = plan.method
+        self.plan = plan
+        self.n_agents = n_agents
+        self.n_tasks = n_tasks
+
+    def begin_episode(self, first: StepOutput, episode: Optional[int] = None) -> None:
+        pass
+
+    def act(self, output: StepOutput) -> List[int]:
+        finished = output.info.finished
+        actions = [self.n_tasks] * self.n_agents
+        for robot in np.flatnonzero(output.deciding):
+            route = self.plan.robot_tasks[robot] if robot < len(self.plan.robot_tasks) else []
+            actions[robot] = next((task for task in route if not finished[task]), self.n_tasks)
+        return actions
+
+
+def plan_policy(plan: Plan, n_agents: int, n_tasks: int, decision_mode: str = "synchronous"):
+    """The policy that carries out `plan` in the environment's decision mode."""
+    if decision_mode == "event":
+        return EventPlanPolicy(plan, n_agents, n_tasks)
+    return PlanPolicy(plan, n_agents, n_tasks)
+
+
 class PolicyLoadError(ValueError):
     """The learned policy cannot be used here; str(error) is one line."""
 

@@ -6,7 +6,7 @@ environment while the episode runs, so the same rules score them all.
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
-from typing import Any, Dict, List, Optional
+from typing import Any, Dict, List, Optional, Sequence
 
 from marl_mrta.common.records import STEP_RECORD
 
@@ -26,6 +26,7 @@ class ScheduleEntry:
     order: Optional[int]       # 1-based position in the global finishing order (finished attempts)
     logic_correct: bool        # every predecessor finished strictly before this arrival
     service_end: Optional[float] = None   # s since episode start: end of the service time (finished)
+    service_start: Optional[float] = None  # s since episode start: its start (after any wait for predecessors)
 
 
 @dataclass
@@ -46,6 +47,32 @@ class EpisodeRecord:
     nav_time: List[float] = field(default_factory=list)                  # per robot, total
     idle_time: List[float] = field(default_factory=list)                 # per robot, total
     collisions: List[int] = field(default_factory=list)                  # per robot, total
+    decision_mode: str = "synchronous"   # synchronous (the paper's steps) | event
+
+    def idle_share(self, service_times: Sequence[float]) -> float:
+        """The time robots wait between their tasks (at a step's end, for predecessors, or idle),
+        summed over robots, ÷ the time from the start to each robot's last finish (robots that
+        finished nothing left out). 0 when no robot finished anything. service_times: per task
+        (a service starts that long before its end where the entry does not say when)."""
+        waited = spans = 0.0
+        for robot in range(len(self.robot_ids)):
+            mine = [e for e in self.entries if e.robot == robot]
+            finishes = [e.service_end for e in mine if e.finished and e.service_end is not None]
+            if not finishes:
+                continue
+            last = max(finishes)
+            busy = 0.0
+            for e in mine:
+                if e.start >= last:
+                    continue
+                arrived = e.reach if e.reach is not None else e.end
+                busy += max(0.0, min(arrived, last) - e.start)
+                if e.finished and e.service_end is not None:
+                    begun = e.service_start if e.service_start is not None else e.service_end - service_times[e.task]
+                    busy += max(0.0, e.service_end - begun)
+            waited += max(0.0, last - busy)
+            spans += last
+        return waited / spans if spans > 0 else 0.0
 
     @property
     def decision_steps(self) -> int:
@@ -69,6 +96,11 @@ class EpisodeRecord:
 
     def to_dict(self) -> Dict[str, Any]:
         data = asdict(self)
+        if self.decision_mode == "synchronous":   # the paper's documents, as they always were
+            del data["decision_mode"]
+        for entry in data["entries"]:
+            if entry["service_start"] is None:
+                del entry["service_start"]
         data["decision_steps"] = self.decision_steps
         data["logic_consistent"] = self.logic_consistent
         data["robot_task_lists"] = [[self.task_ids[t] for t in tasks] for tasks in self.robot_task_lists()]

@@ -1,0 +1,230 @@
+"""The task rules of event mode: a robot decides when it comes free, while the others keep driving.
+
+The state machine of one episode's tasks and robots, shared by the environment (env/event_env.py)
+over any executor and by the planners' check of their fast schedule (baselines/event_plan.py).
+Times are absolute (s from the episode's start); the executor says when a leg ends, these rules
+say everything else:
+
+- A robot is `idle` (no task, or chose None), `driving` to a task, `holding` at a task whose
+  predecessors are not all finished, or `serving` it (its service time).
+- A leg that reaches its task: the task is already finished or taken by a robot standing at it
+  (holding or serving) -> a wasted trip, the robot is free; else its predecessors are finished ->
+  service starts; else the robot holds there and serves it from its last predecessor's finish.
+  No task is ever done out of order. A leg that fails frees the robot where it stands.
+- A service end finishes the task (first arrival serves it: never a double finish) and frees its
+  robot; held successors whose last predecessor that was start their service at that instant.
+- A robot gets a decision (`due`) when: it finishes its task; its leg fails or is wasted; it is
+  idle and a task becomes ready (its last predecessor finished); and at the episode's start. When
+  no robot drives or serves (nothing can change by itself), every idle or holding robot gets one
+  `min_step` after the last event, so that an episode never stalls: a holding robot may stay
+  (choosing its task again) or leave.
+- Robots due at the same instant decide together (the environment takes their actions at once;
+  a policy may decide them in turn with claims).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Dict, List, Optional, Sequence, Tuple
+
+IDLE, DRIVING, HOLDING, SERVING = "idle", "driving", "holding", "serving"
+#: s: events within this of each other are one instant (floating sums of leg times).
+SAME_INSTANT = 1e-9
+
+
+@dataclass
+class RobotState:
+    phase: str = IDLE
+    task: Optional[int] = None       # the task it drives to, holds at or serves (None when idle)
+    since: float = 0.0               # when the current phase began
+    leg_start: float = 0.0           # when its current (or last) leg began
+    service_end: float = 0.0         # serving: when the service ends
+    decided_at: float = 0.0          # its last decision
+
+
+@dataclass
+class Attempt:
+    """A robot's try at a task, from its decision to its end: what the reward and record need."""
+
+    robot: int
+    task: int
+    decided_at: float
+    arrived_at: Optional[float] = None   # None: the leg failed
+    nav_time: float = 0.0                # s driven (to arrival or failure)
+    held: float = 0.0                    # s waited at the task for predecessors
+    service_start: Optional[float] = None
+    finish_time: Optional[float] = None  # its finish (service end), None if it finished nothing
+    failure: str = ""                    # why the leg failed ("" if it arrived)
+    wasted: bool = False                 # arrived at a task already finished or taken
+
+
+@dataclass
+class EventOutcome:
+    """What happened between two decision instants (a transition), per robot where indexed."""
+
+    time: float
+    ended: List[Attempt] = field(default_factory=list)        # attempts that ended (finished, failed, wasted)
+    finished: List[Tuple[int, int, float]] = field(default_factory=list)   # (task, robot, finish time) in order
+    released: List[int] = field(default_factory=list)         # tasks that became ready
+
+
+class EventRules:
+    """One episode of event-mode rules; see the module docstring."""
+
+    def __init__(self, n_robots: int, predecessors: Sequence[Sequence[int]], service_times: Sequence[float],
+                 min_step: float):
+        self.n_robots = n_robots
+        self.predecessors = [tuple(p) for p in predecessors]
+        self.successors: List[List[int]] = [[] for _ in predecessors]
+        for task, preds in enumerate(self.predecessors):
+            for p in preds:
+                self.successors[p].append(task)
+        self.service = list(service_times)
+        self.min_step = min_step
+        self.reset()
+
+    def reset(self, now: float = 0.0) -> None:
+        n_tasks = len(self.service)
+        self.robots = [RobotState(since=now, decided_at=now) for _ in range(self.n_robots)]
+        self.finished = [False] * n_tasks
+        self.finish_time: List[Optional[float]] = [None] * n_tasks
+        self.finished_by: List[Optional[int]] = [None] * n_tasks
+        self.attempts: List[Optional[Attempt]] = [None] * self.n_robots
+        self.due = set(range(self.n_robots))
+        self.last_event = now
+
+    # ------------------------------------------------------------------ questions
+
+    def ready(self, task: int) -> bool:
+        return not self.finished[task] and all(self.finished[p] for p in self.predecessors[task])
+
+    def taken(self, task: int, by_other_than: Optional[int] = None) -> bool:
+        """A robot other than `by_other_than` drives to, holds at or serves the task."""
+        return any(r.task == task and i != by_other_than for i, r in enumerate(self.robots) if r.phase != IDLE)
+
+    def occupied(self, task: int) -> bool:
+        """A robot stands at the task (holding or serving)."""
+        return any(r.task == task and r.phase in (HOLDING, SERVING) for r in self.robots)
+
+    def running(self) -> bool:
+        """Something changes by itself: a robot drives or serves."""
+        return any(r.phase in (DRIVING, SERVING) for r in self.robots)
+
+    @property
+    def done(self) -> bool:
+        return all(self.finished)
+
+    def next_timer(self) -> Optional[float]:
+        """The next time the rules themselves act: a service end, or the min_step wake-up when
+        nothing runs and no robot is due."""
+        ends = [r.service_end for r in self.robots if r.phase == SERVING]
+        if ends:
+            return min(ends)
+        if not self.running() and not self.due and any(r.phase in (IDLE, HOLDING) for r in self.robots):
+            return self.last_event + self.min_step
+        return None
+
+    # ------------------------------------------------------------------ changes
+
+    def assign(self, robot: int, task: Optional[int], now: float) -> None:
+        """A due robot's decision: drive to `task`, or (None) stay idle. A holding robot that chooses
+        its own task again keeps holding."""
+        state = self.robots[robot]
+        self.due.discard(robot)
+        state.decided_at = now
+        if task is not None and state.phase == HOLDING and state.task == task:
+            return
+        if state.phase == HOLDING:   # it leaves: its attempt ends unserved
+            attempt = self.attempts[robot]
+            if attempt is not None:
+                attempt.held = now - state.since
+            self.attempts[robot] = None
+        if task is None:
+            state.phase, state.task, state.since = IDLE, None, now
+            return
+        state.phase, state.task, state.since, state.leg_start = DRIVING, task, now, now
+        self.attempts[robot] = Attempt(robot, task, now)
+
+    def leg_ended(self, robot: int, now: float, reached: bool, failure: str = "") -> Optional[Attempt]:
+        """The executor's report: the robot's leg reached its task at `now`, or failed. Returns the
+        attempt if it ended here (failed or wasted)."""
+        state = self.robots[robot]
+        if state.phase != DRIVING:
+            raise ValueError(f"robot {robot}: a leg ended while it was {state.phase}")
+        attempt = self.attempts[robot]
+        task = state.task
+        attempt.nav_time = now - state.leg_start
+        if not reached:
+            attempt.failure = failure or "failed"
+            return self._free(robot, now)
+        attempt.arrived_at = now
+        if self.finished[task] or self.occupied(task):
+            attempt.wasted = True
+            return self._free(robot, now)
+        if all(self.finished[p] for p in self.predecessors[task]):
+            self._serve(robot, now)
+        else:
+            state.phase, state.since = HOLDING, now
+        return None
+
+    def advance_to(self, now: float, outcome: EventOutcome) -> None:
+        """Service ends up to `now`, in time order (each releasing held successors at its instant),
+        and the min_step wake-up; adds what happened to `outcome`."""
+        while True:
+            serving = [(r.service_end, i) for i, r in enumerate(self.robots) if r.phase == SERVING]
+            if not serving:
+                break
+            end, robot = min(serving)
+            if end > now + SAME_INSTANT:
+                break
+            self._finish(robot, end, outcome)
+        if not self.running() and not self.due and now >= self.last_event + self.min_step - SAME_INSTANT:
+            self.due.update(i for i, r in enumerate(self.robots) if r.phase in (IDLE, HOLDING))
+        if outcome.ended or outcome.finished or self.due:
+            self.last_event = now
+
+    # ------------------------------------------------------------------ helpers
+
+    def _serve(self, robot: int, start: float) -> None:
+        state = self.robots[robot]
+        attempt = self.attempts[robot]
+        attempt.service_start = start
+        attempt.held = start - attempt.arrived_at
+        state.phase, state.since, state.service_end = SERVING, start, start + self.service[state.task]
+
+    def _finish(self, robot: int, time: float, outcome: EventOutcome) -> None:
+        state = self.robots[robot]
+        task = state.task
+        self.finished[task], self.finish_time[task], self.finished_by[task] = True, time, robot
+        attempt = self.attempts[robot]
+        attempt.finish_time = time
+        outcome.finished.append((task, robot, time))
+        outcome.ended.append(attempt)
+        self.attempts[robot] = None
+        state.phase, state.task, state.since = IDLE, None, time
+        self.due.add(robot)
+        for successor in self.successors[task]:
+            if self.ready(successor):
+                outcome.released.append(successor)
+                held = [i for i, r in enumerate(self.robots) if r.phase == HOLDING and r.task == successor]
+                if held:
+                    self._serve(held[0], time)   # the first to arrive serves; others stay until freed
+                    for other in held[1:]:
+                        self.attempts[other].wasted = True
+                        ended = self._free(other, time)
+                        if ended is not None:
+                            outcome.ended.append(ended)
+                else:
+                    self.due.update(i for i, r in enumerate(self.robots) if r.phase == IDLE)
+
+    def _free(self, robot: int, now: float) -> Attempt:
+        state = self.robots[robot]
+        attempt = self.attempts[robot]
+        self.attempts[robot] = None
+        state.phase, state.task, state.since = IDLE, None, now
+        self.due.add(robot)
+        return attempt
+
+    def snapshot(self) -> Dict[str, object]:
+        """The state in plain values (tests, logs)."""
+        return {"phases": [r.phase for r in self.robots], "tasks": [r.task for r in self.robots],
+                "finished": list(self.finished), "due": sorted(self.due)}
