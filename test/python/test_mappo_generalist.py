@@ -7,12 +7,13 @@ import pytest
 
 from marl_mrta.apps.bench_generalise import summary_of, zero_shot
 from marl_mrta.apps.evaluate import main as evaluate_main
-from marl_mrta.apps.train import main as train_main
+from marl_mrta.apps.train import main as train_main, parse_overrides
 from marl_mrta.baselines.reference import scenario_reference
 from marl_mrta.common.paths import package_root
 from marl_mrta.env.settings import load_task_settings
-from marl_mrta.mappo.config import load_config, resolve_preset
+from marl_mrta.mappo.config import config_to_dict, load_config, resolve_preset
 from marl_mrta.mappo.policy import SetActorPolicy, actor_file_path, load_policy, read_actor_file
+from marl_mrta.mappo.runner import Runner
 from marl_mrta.model.generator import ScenarioRequest, generate_scenario
 from marl_mrta.model.scenario import load_scenario
 
@@ -24,6 +25,16 @@ def optimum(name):
     plan, _ = scenario_reference(load_scenario(SCENARIOS / f"{name}.xml"), task.min_step, goal_timeout=task.goal_timeout)
     assert plan.proven_optimal
     return plan.makespan
+
+
+def trained_with(run):
+    """The settings a training run stored in its checkpoint."""
+    return Runner.read_checkpoint(run / "checkpoint.pt")["config"]
+
+
+def preset_with(preset, *settings):
+    """A preset's settings with train's `--set` items on top."""
+    return config_to_dict(load_config(resolve_preset(preset), parse_overrides(list(settings))))
 
 
 def test_the_name_generalist_stands_for_the_shipped_set_actor():
@@ -88,7 +99,7 @@ def test_evaluate_acts_under_the_mask_the_actor_was_trained_with(tmp_path, capsy
 
 @pytest.mark.parametrize("name", ["lab_2r", "lab_3r"])
 @pytest.mark.slow
-def test_fine_tuning_the_generalist_reaches_the_optimum_on_the_lab(name, tmp_path, capsys):
+def test_fine_tuning_the_generalist_reaches_the_optimum_on_the_lab(name, tmp_path):
     """train --init generalist (the finetune preset, here 10 s of wall time): a new run from the
     shipped weights whose kept actor schedules the scenario at its proven optimum. lab_3r's
     optimum is not one robots deciding in turn under the precedence mask can take (the
@@ -97,8 +108,8 @@ def test_fine_tuning_the_generalist_reaches_the_optimum_on_the_lab(name, tmp_pat
     run = tmp_path / "run"
     assert train_main(["--scenario", str(SCENARIOS / f"{name}.xml"), "--init", "generalist", "--seed", "0",
                        "--set", "max_wall_seconds=10", "--out", str(run)]) == 0
-    out = capsys.readouterr().out
-    assert "with preset finetune" in out and "starting from generalist" in out
+    settings = trained_with(run)
+    assert settings == preset_with("finetune", "max_wall_seconds=10") and settings["init_actor"] == "generalist"
     history = json.loads((run / "history.json").read_text())
     assert history["evaluations"] and history["evaluations"][-1]["wall_time"] >= 10.0
     shot = zero_shot(load_policy(run / "actor.pt"), load_scenario(SCENARIOS / f"{name}.xml"), "finished")
@@ -106,20 +117,20 @@ def test_fine_tuning_the_generalist_reaches_the_optimum_on_the_lab(name, tmp_pat
 
 
 @pytest.mark.slow
-def test_train_without_a_preset_fine_tunes_the_generalist(tmp_path, capsys):
+def test_train_without_a_preset_fine_tunes_the_generalist(tmp_path):
     """train's default on the embedded backend is the finetune preset from the shipped generalist
     (a set actor that acts under the finished mask); --init none keeps the tuned preset's MLP actor."""
     run = tmp_path / "default"
     assert train_main(["--scenario", str(SCENARIOS / "lab_4r.xml"), "--set", "max_wall_seconds=3",
                        "--out", str(run)]) == 0
-    out = capsys.readouterr().out
-    assert "with preset finetune" in out and "starting from generalist" in out
+    settings = trained_with(run)
+    assert settings == preset_with("finetune", "max_wall_seconds=3") and settings["init_actor"] == "generalist"
     assert isinstance(load_policy(run / "actor.pt"), SetActorPolicy)
     assert load_policy(run / "actor.pt").action_mask == "finished"
     fresh = tmp_path / "fresh"
     assert train_main(["--scenario", str(SCENARIOS / "lab_2r.xml"), "--init", "none", "--set", "total_env_steps=400",
                        "--out", str(fresh)]) == 0
-    assert "with preset tuned" in capsys.readouterr().out
+    assert trained_with(fresh) == preset_with("tuned", "total_env_steps=400")
     assert not isinstance(load_policy(fresh / "actor.pt"), SetActorPolicy)
 
 

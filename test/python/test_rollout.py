@@ -39,7 +39,7 @@ def test_rollout_takes_the_optimum_the_actor_alone_misses():
     plan, instance = planned(JOIN, as_it_is())
     exact = solve_exact(instance)
     assert exact.proven_optimal
-    assert plan.details["greedy_makespan"] > 1.25 * exact.makespan     # the actor alone: 50.20 s against 39.44 s
+    assert plan.details["greedy_makespan"] > exact.makespan + 1e-6     # the actor alone misses it
     assert plan.complete and plan.logic_violations == 0
     assert plan.makespan == pytest.approx(exact.makespan, abs=1e-6)
     assert 1 < plan.details["play_outs"] < load_baseline_settings().rollout.max_rollouts
@@ -67,7 +67,7 @@ def test_the_turned_floor_finds_the_optimum_the_floor_as_it_is_misses():
     alone, instance = planned(TURNED, as_it_is())
     exact = solve_exact(instance)
     assert exact.proven_optimal
-    assert alone.makespan > 1.1 * exact.makespan                        # 1.118 x
+    assert alone.makespan > exact.makespan + 1e-6                       # the floor as it is misses it
     plan, _ = planned(TURNED, load_baseline_settings().rollout)
     assert plan.complete and plan.logic_violations == 0
     assert plan.makespan == pytest.approx(exact.makespan, abs=1e-6)
@@ -77,7 +77,7 @@ def test_the_turned_floor_finds_the_optimum_the_floor_as_it_is_misses():
     assert plan.details["greedy_makespan"] == alone.details["greedy_makespan"]   # the actor alone, as it is
 
 
-def test_evaluate_runs_the_rollout_plan_beside_the_actor(tmp_path, capsys):
+def test_evaluate_runs_the_rollout_plan_beside_the_actor(tmp_path):
     out = tmp_path / "evaluate.json"
     code = evaluate_main(["--method", "policy,rollout", "--policy", "generalist", "--scenario", str(JOIN),
                           "--episodes", "1", "--quiet", "--out", str(out)])
@@ -85,9 +85,9 @@ def test_evaluate_runs_the_rollout_plan_beside_the_actor(tmp_path, capsys):
     policy, rollout = json.loads(out.read_text())["results"]
     assert rollout["plan"]["method"] == "rollout"
     assert rollout["summary"]["ratio_to_exact"] == pytest.approx(1.0)
-    assert policy["summary"]["ratio_to_exact"] > 1.25
+    assert policy["summary"]["makespan_mean"] > rollout["summary"]["makespan_mean"] + 1e-6   # the actor alone: longer
     assert rollout["summary"]["logic_consistent_pct"] == 100.0
-    assert "episodes played out" in capsys.readouterr().err
+    assert rollout["plan"]["details"]["play_outs"] > 1                 # the plan is the search's, not the actor's alone
 
 
 def test_rollout_without_an_actor_is_one_line(tmp_path, capsys):
@@ -116,11 +116,11 @@ def test_a_bad_search_budget_names_the_file_and_key(tmp_path, section, key, valu
 
 def test_tasks_the_precedence_mask_holds_back_reach_lab_3r_optimum():
     """lab_3r's optimum sends a robot towards a successor whose predecessor a robot after it
-    takes, which the actor's in-turn decision cannot choose (1.042 × alone): the rollout tries
-    such tasks too."""
+    takes, which the actor's in-turn decision cannot choose (the actor alone misses it): the
+    rollout tries such tasks too."""
     plan, instance = planned(package_root() / "scenarios" / "lab_3r.xml", as_it_is())
     exact = solve_exact(instance)
-    assert exact.proven_optimal and plan.details["greedy_makespan"] > 1.04 * exact.makespan
+    assert exact.proven_optimal and plan.details["greedy_makespan"] > exact.makespan + 1e-6
     assert plan.makespan == pytest.approx(exact.makespan, abs=1e-6)
 
 
