@@ -1,4 +1,4 @@
-"""Event mode (env/event_env.py, model/event_rules.py, baselines/event_plan.py): a robot that comes
+"""Event mode (env/event_env.py, model/event_rules.py, baselines/plan.py): a robot that comes
 free decides at once while the others drive on, robots early at a successor wait for its
 predecessors, the planners' schedule of routes is the environment's own, and its reference is
 never longer than the synchronous one's."""
@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from marl_mrta.baselines.event_plan import decode_routes
+from marl_mrta.baselines.plan import decode_routes
 from marl_mrta.baselines.ga import solve_ga
 from marl_mrta.baselines.random_policy import RandomPolicy
 from marl_mrta.baselines.reference import scheduling_instance, solve_reference

@@ -8,12 +8,14 @@ one line on stderr and exit 2.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 from pathlib import Path
 from typing import Any, Callable, Dict, List, Optional
 
 from marl_mrta.common.config import ConfigError
 from marl_mrta.common.paths import package_root, runs_dir
+from marl_mrta.env.settings import DECISION_MODES, load_task_settings
 from marl_mrta.evaluation.training import in_pool, offer_teacher_plan, on_new_env
 from marl_mrta.mappo.config import MappoConfig, config_from_dict, load_config, resolve_preset
 from marl_mrta.mappo.runner import RunError, Runner
@@ -48,6 +50,9 @@ def build_parser() -> argparse.ArgumentParser:
                         help="ros: arenas (task managers) to train on in parallel; sets n_envs (default 2)")
     parser.add_argument("--manager-wait", type=float, default=120.0,
                         help="ros: wall s to wait for every arena's task manager (default 120)")
+    parser.add_argument("--decision-mode", default=None, metavar="MODE",
+                        help="synchronous (the paper's steps) or event (a robot decides when it comes free); "
+                             "default: config/task.yaml's (a resumed run: its own)")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                         help="override one setting of the preset (YAML value), e.g. --set total_env_steps=2000")
     parser.add_argument("--seed", type=int, default=None, help="seed of everything random in the run (default 0)")
@@ -84,9 +89,16 @@ def parse_overrides(items: List[str]) -> Dict[str, Any]:
     return overrides
 
 
-def _settings(args: argparse.Namespace, preset: str) -> MappoConfig:
-    """The preset with --set and (ros) the number of arenas applied."""
+def _settings(args: argparse.Namespace, preset: str, fresh: bool = True) -> MappoConfig:
+    """The preset with --set, --decision-mode and (ros) the number of arenas applied; a fresh run
+    without --decision-mode trains in config/task.yaml's."""
     overrides = parse_overrides(args.set)
+    if args.decision_mode is not None:
+        if args.decision_mode not in DECISION_MODES:
+            raise ConfigError(f"--decision-mode: {args.decision_mode!r} is not one of {', '.join(DECISION_MODES)}")
+        overrides["decision_mode"] = args.decision_mode
+    elif fresh and "decision_mode" not in overrides and "decision_mode" not in _preset_keys(preset):
+        overrides["decision_mode"] = load_task_settings().decision_mode
     if args.backend == "ros":
         overrides["n_envs"] = args.arenas or 2
     elif args.arenas is not None:
@@ -121,8 +133,13 @@ def _resumed_runner(args: argparse.Namespace, log: Callable[[str], None]) -> Run
         raise RunError(f"--seed: {args.seed} differs from the run's seed {stored['seed']}; resume keeps the stored one")
     if args.init is not None:
         raise RunError("--init: a resumed run continues from its checkpoint; --init starts a new one")
-    if (args.preset is not None or args.set) and _settings(args, args.preset or default_preset(args)) != config:
-        raise RunError(f"--preset/--set: the settings differ from those stored in {args.out}/checkpoint.pt")
+    if args.preset is not None or args.set or args.decision_mode:
+        wanted = _settings(args, args.preset or default_preset(args), fresh=False)
+        if not args.decision_mode:   # unnamed, the run's own
+            wanted = dataclasses.replace(wanted, decision_mode=config.decision_mode)
+        if wanted != config:
+            raise RunError(f"--preset/--set/--decision-mode: the settings differ from those stored in "
+                           f"{args.out}/checkpoint.pt")
     if args.backend == "ros" and args.arenas is not None and args.arenas != config.n_envs:
         raise RunError(f"--arenas: {args.arenas} differs from the run's {config.n_envs} environments")
     backend = _backend(args, config, stored["seed"], stored["scenario"])
@@ -131,6 +148,15 @@ def _resumed_runner(args: argparse.Namespace, log: Callable[[str], None]) -> Run
     note = " (running episodes restart: a simulation is not replayed)" if args.backend == "ros" else ""
     log(f"train: resuming {args.out} at update {runner.update}/{config.n_updates}{note}")
     return runner
+
+
+def _preset_keys(preset: str) -> set:
+    """The settings a preset file names itself."""
+    import yaml
+    try:
+        return set(yaml.safe_load(resolve_preset(preset).read_text()) or {})
+    except (OSError, yaml.YAMLError, ConfigError):
+        return set()   # load_config reports the problem
 
 
 def default_preset(args: argparse.Namespace) -> str:

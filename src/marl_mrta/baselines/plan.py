@@ -3,7 +3,8 @@
 SchedulingInstance: a scenario reduced to nominal numbers (travel times between nodes, service
 times, precedence, the goal timeout). Plan: per-robot ordered task lists plus the per-step joint
 actions that carry them out under the environment's step rules (model/rules.py), so a plan can
-be replayed through the environment and scored by the same rules as every other method.
+be replayed through the environment and scored by the same rules as every other method. In event
+mode a plan is its routes alone, carried out as events (decode_routes, at the end).
 """
 from __future__ import annotations
 
@@ -34,7 +35,7 @@ class SchedulingInstance:
     there and serves it after them) or in a later step (it stands there unserved until then),
     and the margin is not needed. Every plan of the paper's rules keeps its makespan under it.
     decision_mode: synchronous (the step rules) or event (robots take the next task of their route
-    when they come free and wait at a task for its predecessors: baselines/event_plan.py).
+    when they come free and wait at a task for its predecessors: baselines/plan.py).
     """
 
     n_robots: int
@@ -278,9 +279,8 @@ def next_goals(run: NominalRun, robot_lists: Sequence[Sequence[int]]) -> Optiona
 def decode_task_lists(instance: SchedulingInstance, robot_lists: Sequence[Sequence[int]]) -> NominalRun:
     """Joint actions carrying out per-robot ordered task lists (each task in exactly one list),
     step by step with next_goals, until every task is finished (or no robot can reach the rest).
-    In event mode: the lists as routes dispatched on events (baselines/event_plan.py)."""
+    In event mode: the lists as routes dispatched on events (baselines/plan.py)."""
     if instance.decision_mode == "event":
-        from marl_mrta.baselines.event_plan import decode_routes   # it builds on this module
         return decode_routes(instance, robot_lists)
     run = NominalRun(instance)
     # A bound on the steps, so that no list can keep the decoder going: every task is at most
@@ -309,3 +309,74 @@ def under_either_rules(solve: Callable[[SchedulingInstance], Plan], instance: Sc
         return plan
     paper = solve(dataclasses.replace(instance, hold_successors=False))
     return dataclasses.replace(paper, instance=instance) if paper.usable_makespan < plan.usable_makespan else plan
+
+# ---------------------------------------------------------------------------- event mode
+# Plans in event mode: per-robot routes carried out as event dispatch.
+#
+# Each robot takes the next task of its route the moment it comes free (model/event_rules.py): it
+# drives there over the direct leg, waits there for the task's predecessors if they are not all
+# finished, and serves it. With nominal legs that is the earliest-start schedule of the routes:
+#
+#     arrival(j) = finish(previous task of j's route) + leg(previous node, node of j)   (0 + leg from
+#                  the robot's start for its first task)
+#     start(j)   = max(arrival(j), finish of every predecessor of j)
+#     finish(j)  = start(j) + service(j);   makespan = the last finish.
+#
+# Routes that wait on each other in a cycle (a robot holds at a task whose predecessor comes later
+# on a route that waits in turn) never finish: such a plan is incomplete (makespan inf), as is one
+# with a leg beyond the goal timeout (the environment fails it). test/python/test_event_mode.py checks this
+# schedule against the environment's own episodes of the same routes.
+
+@dataclass
+class EventRun:
+    """What the planners read of a decoded plan (the fields of plan.NominalRun they use)."""
+
+    instance: SchedulingInstance
+    robot_tasks: List[List[int]]
+    elapsed: float                       # s, the makespan (inf when incomplete)
+    complete: bool
+    arrival: List[Optional[float]] = field(default_factory=list)   # per task
+    start: List[Optional[float]] = field(default_factory=list)     # per task: its service start
+    finish: List[Optional[float]] = field(default_factory=list)    # per task
+    joint_actions: List[List[Optional[int]]] = field(default_factory=list)   # none: no steps in event mode
+    violations: int = 0                  # never out of order: robots wait for predecessors
+
+
+def decode_routes(instance: SchedulingInstance, routes: Sequence[Sequence[int]]) -> EventRun:
+    """The earliest-start schedule of `routes` (each task in at most one route)."""
+    n_t = instance.n_tasks
+    rows = instance.travel_rows
+    route_of: List[Optional[int]] = [None] * n_t
+    before: List[Optional[int]] = [None] * n_t      # the previous task on its route
+    for robot, route in enumerate(routes):
+        for k, task in enumerate(route):
+            route_of[task] = robot
+            before[task] = route[k - 1] if k else None
+    arrival: List[Optional[float]] = [None] * n_t
+    start: List[Optional[float]] = [None] * n_t
+    finish: List[Optional[float]] = [None] * n_t
+    lists = [list(route) for route in routes]
+    pending = [t for route in lists for t in route]
+    while pending:
+        progressed = False
+        rest = []
+        for task in pending:
+            prev = before[task]
+            if (prev is not None and finish[prev] is None) or any(finish[p] is None for p in instance.predecessors[task]):
+                rest.append(task)
+                continue
+            robot = route_of[task]
+            node = instance.node(prev) if prev is not None else robot
+            leg = rows[node][instance.node(task)]
+            if leg > instance.goal_timeout:
+                return EventRun(instance, lists, math.inf, False, arrival, start, finish)
+            arrival[task] = (finish[prev] if prev is not None else 0.0) + leg
+            start[task] = max([arrival[task]] + [finish[p] for p in instance.predecessors[task]])
+            finish[task] = start[task] + instance.service[task]
+            progressed = True
+        if not progressed:   # routes that wait on each other: a deadlock
+            return EventRun(instance, lists, math.inf, False, arrival, start, finish)
+        pending = rest
+    complete = all(f is not None for f in finish)
+    makespan = max(finish) if complete and finish else (0.0 if n_t == 0 else math.inf)
+    return EventRun(instance, lists, makespan, complete, arrival, start, finish)

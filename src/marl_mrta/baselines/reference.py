@@ -241,7 +241,7 @@ def solve_event_reference(instance: SchedulingInstance, settings: BaselineSettin
     is event mode's own schedule (a robot leaves a task at its finish and drives straight to its
     next, and serves it no earlier than its predecessors' finishes), within the CP-SAT budget. Its
     bound is a lower bound of every event-mode plan; its routes, dispatched as events
-    (event_plan.py), compete with the auction's and the candidates' plans for the best known.
+    (plan.py), compete with the auction's and the candidates' plans for the best known.
     Solved to the model's 10 ms ticks, it is solved again in microseconds from its plan, which
     proves the optimum (legs rounded down one by one leave a few ticks of gap)."""
     started = time.monotonic()

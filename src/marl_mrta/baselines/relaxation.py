@@ -90,7 +90,7 @@ def solve_relaxation(instance: SchedulingInstance, budget: CpSatBudget, kind: st
     found gives its routes and its makespan as `optimum` (the relaxation's optimum is at most
     that), and no bound. With `direct_legs` (asynchronous only) legs are the direct ones within
     the goal timeout, not the quickest chains over other goals: event mode's own schedule
-    (event_plan.py), of which the optimum is then exact, not a relaxation."""
+    (plan.py), of which the optimum is then exact, not a relaxation."""
     if kind not in KINDS:
         raise ValueError(f"relaxation kind {kind!r} is not one of {', '.join(KINDS)}")
     if kind != "asynchronous" and scale != BOUND_TIME:

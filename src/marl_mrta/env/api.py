@@ -41,6 +41,9 @@ class StepInfo:
     # Event mode: per robot, the task it drives to, holds at or serves (None: idle). A policy that
     # decides in turn takes those of busy robots as claimed.
     robot_tasks: List[Optional[int]] = field(default_factory=list)
+    # Event mode: per robot, its attempt at a task ended in this transition (finished_task says
+    # whether it finished it; nav_time is that attempt's); idle_time is what it waited in it.
+    attempt_ended: List[bool] = field(default_factory=list)
 
 
 @dataclass(**STEP_RECORD)

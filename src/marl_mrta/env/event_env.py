@@ -10,7 +10,8 @@ Rewards: per robot and per transition (from one decision instant to the next) th
 components over that stretch of the robot's own time: r_idle for the time it waited (idle or
 holding for predecessors), r_col for its collision events, and at the end of an attempt (its
 task finished, its leg failed or wasted) r_logic and r_nav of that attempt. A robot's return over
-its own decision interval is the sum of its transitions' rewards, each discounted by the elapsed
+its own decision interval is the sum of its transitions' rewards (model/reward.py, event_rewards),
+each discounted by the elapsed
 time: `info.step_duration` is the transition's length Δt (the trainer discounts by γ^Δt, see
 mappo/config.py `discount_seconds`).
 
@@ -30,7 +31,7 @@ from marl_mrta.env.api import REWARD_COMPONENTS, StepInfo, StepOutput
 from marl_mrta.env.observation import ObservationEncoder, float32_array
 from marl_mrta.env.settings import TaskSettings
 from marl_mrta.model.event_rules import DRIVING, HOLDING, IDLE, SERVING, EventOutcome, EventRules
-from marl_mrta.model.reward import RewardConfig, collision_reward, idle_reward, logic_reward, nav_reward
+from marl_mrta.model.reward import RewardConfig, event_rewards
 from marl_mrta.model.scenario import Scenario
 from marl_mrta.model.schedule import EpisodeRecord, ScheduleEntry
 
@@ -77,7 +78,6 @@ class EventTaskEnvironment:
         self.over = False
         self.previous_task: List[Optional[int]] = [None] * n
         self.last_nav = [0.0] * n
-        self.chose_none = [False] * n
         self.decisions = [0] * n
         self.record = EpisodeRecord(self.scenario.name, [r.id for r in self.scenario.robots],
                                     [t.id for t in self.scenario.tasks], finish_time=self.rules.finish_time,
@@ -107,7 +107,6 @@ class EventTaskEnvironment:
             task = None if values[robot] == none else values[robot]
             was_holding = rules.robots[robot].phase == HOLDING and rules.robots[robot].task == task
             rules.assign(robot, task, start)
-            self.chose_none[robot] = task is None
             self.decisions[robot] += 1
             joint[robot] = task
             if task is not None and not was_holding:
@@ -154,19 +153,12 @@ class EventTaskEnvironment:
 
         # Rewards: each robot's stretch of this transition, and the attempts that ended in it.
         ended_by = {a.robot: a for a in outcome.ended}
-        logic, nav, col, idle, total = ([0.0] * n for _ in range(5))
-        cfg = self.reward
+        for i, attempt in ended_by.items():
+            self.last_nav[i] = attempt.nav_time
+        ended = [i in ended_by for i in range(n)]
+        finished_attempt = [i in ended_by and ended_by[i].finish_time is not None for i in range(n)]
+        breakdown = event_rewards(self.reward, ended, finished_attempt, self.last_nav, collisions, waited)
         for i in range(n):
-            attempt = ended_by.get(i)
-            if attempt is not None:
-                logic[i] = logic_reward(cfg, True, True, attempt.finish_time is not None)
-                nav[i] = nav_reward(cfg, True, attempt.nav_time)
-                self.last_nav[i] = attempt.nav_time
-            elif self.chose_none[i] and i in rules.due:
-                logic[i], nav[i] = logic_reward(cfg, False, True, False), nav_reward(cfg, False, 0.0)
-            col[i] = collision_reward(cfg, collisions[i])
-            idle[i] = idle_reward(cfg, waited[i])
-            total[i] = cfg.w_logic * logic[i] + cfg.w_time * nav[i] + cfg.w_col * col[i] + cfg.w_idle * idle[i]
             record.idle_time[i] += waited[i]
             record.collisions[i] += collisions[i]
         for attempt in outcome.ended:
@@ -182,7 +174,7 @@ class EventTaskEnvironment:
                         waited, collisions, [r.phase in (HOLDING, SERVING) for r in rules.robots], finished_task,
                         [True] * n, [ended_by[i].failure if i in ended_by else "" for i in range(n)],
                         [None] * n, [ended_by[i].held if i in ended_by else 0.0 for i in range(n)],
-                        robot_tasks=[r.task for r in rules.robots])
+                        robot_tasks=[r.task for r in rules.robots], attempt_ended=ended)
         if done or truncated:
             self.over = True
             for i, robot in enumerate(rules.robots):   # attempts cut by the end: in the record unfinished
@@ -197,7 +189,8 @@ class EventTaskEnvironment:
             record.abort_reason = abort_reason
             info.episode = record
             info.abort_reason = abort_reason
-        table = float32_array([*logic, *nav, *col, *idle, *total])
+        table = float32_array([*breakdown.logic, *breakdown.nav, *breakdown.collision, *breakdown.idle,
+                               *breakdown.total])
         *components, rewards = table.reshape(len(REWARD_COMPONENTS) + 1, n)
         return self._output(rewards, dict(zip(REWARD_COMPONENTS, components)), done, truncated, info)
 

@@ -10,6 +10,8 @@ import numpy as np
 
 from marl_mrta.baselines.plan import NominalRun, Plan, next_goals
 from marl_mrta.env.api import StepOutput
+from marl_mrta.mappo.claims import busy_claims
+from marl_mrta.model.event_rules import route_actions
 from marl_mrta.mappo.policy import ActorPolicy, PolicyFileError, SetActorPolicy, load_policy
 from marl_mrta.model.scenario import Scenario, ScenarioError
 
@@ -60,7 +62,7 @@ class PlanPolicy:
 
 
 class EventPlanPolicy:
-    """Carries out a plan's routes in event mode (baselines/event_plan.py): each robot, when it
+    """Carries out a plan's routes in event mode (baselines/plan.py): each robot, when it
     decides, takes the first task of its route that is not finished (a leg that failed is driven
     again); a robot whose route is done stays idle."""
 
@@ -74,12 +76,7 @@ class EventPlanPolicy:
         pass
 
     def act(self, output: StepOutput) -> List[int]:
-        finished = output.info.finished
-        actions = [self.n_tasks] * self.n_agents
-        for robot in np.flatnonzero(output.deciding):
-            route = self.plan.robot_tasks[robot] if robot < len(self.plan.robot_tasks) else []
-            actions[robot] = next((task for task in route if not finished[task]), self.n_tasks)
-        return actions
+        return route_actions(self.plan.robot_tasks, output.info.finished, output.deciding, self.n_tasks)
 
 
 def plan_policy(plan: Plan, n_agents: int, n_tasks: int, decision_mode: str = "synchronous"):
@@ -147,6 +144,9 @@ class LearnedPolicy:
         self._hidden = self.actor.initial_hidden(self.n_agents)
 
     def act(self, output: StepOutput) -> List[int]:
+        claimed = None if output.deciding is None else \
+            busy_claims(output.info.robot_tasks, output.deciding, self.actor.n_actions - 1)
         actions, self._hidden = self.actor.act_team(output.obs, output.action_mask, self._hidden,
-                                                    deterministic=self.deterministic)
+                                                    deterministic=self.deterministic, deciding=output.deciding,
+                                                    claimed=claimed)
         return [int(a) for a in np.asarray(actions).reshape(-1)]

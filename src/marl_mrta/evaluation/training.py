@@ -4,6 +4,7 @@ episode loop: on an environment of the run's factory, or in the run's own pool o
 from __future__ import annotations
 
 import time
+from functools import partial
 from typing import Callable, List, Sequence
 
 from marl_mrta.baselines.ga import solve_ga
@@ -17,6 +18,7 @@ from marl_mrta.evaluation.policies import LearnedPolicy
 from marl_mrta.mappo.env_pool import EnvPool, EpisodeSummary, EpisodeTally
 from marl_mrta.mappo.policy import ActorPolicy
 from marl_mrta.mappo.runner import GreedyEvaluation, Runner
+from marl_mrta.model.event_rules import route_actions
 
 
 def greedy_episodes(actor: ActorPolicy, env: TaskAllocationEnv, seeds: Sequence[int],
@@ -51,6 +53,11 @@ def in_pool(pool: EnvPool) -> GreedyEvaluation:
     return evaluate
 
 
+def _route_actions(routes, none: int, out: StepOutput):
+    deciding = out.deciding if out.deciding is not None else [True] * len(out.rewards)
+    return route_actions(routes, out.info.finished, deciding, none)
+
+
 def offer_teacher_plan(runner: Runner, log: Callable[[str], None] = print) -> None:
     """A fresh run's teacher (config teacher) plans the run's scenario, and its self-imitation
     gets the plan as if it had sampled it (mappo/imitation.py, SelfImitation)."""
@@ -59,8 +66,10 @@ def offer_teacher_plan(runner: Runner, log: Callable[[str], None] = print) -> No
     scenario = runner.replay_env()[0].scenario   # built once; self-imitation replays in it
     started = time.perf_counter()
     task = load_task_settings()
+    event = runner.config.decision_mode == "event"
     instance = scheduling_instance(scenario, task.min_step, task.goal_timeout,
-                                   hold_successors=runner.config.hold_successors)
+                                   hold_successors=runner.config.hold_successors,
+                                   decision_mode=runner.config.decision_mode)
     settings = load_baseline_settings()
     ga = under_either_rules(lambda inst: solve_ga(inst, settings.ga, seed=runner.seed), instance)
     plans = [ga]
@@ -68,7 +77,8 @@ def offer_teacher_plan(runner: Runner, log: Callable[[str], None] = print) -> No
         # The GA's plan is a candidate: the reference's budget may end before its solvers match it.
         budget = settings.within(runner.config.teacher_seconds) if runner.config.teacher_seconds > 0 else settings
         best = solve_reference(instance, budget, candidates=[ga]).plan
-        plans = [best] + ([ga] if ga.joint_actions != best.joint_actions else [])
+        plans = [best] + ([ga] if (ga.robot_tasks if event else ga.joint_actions) !=
+                          (best.robot_tasks if event else best.joint_actions) else [])
     seconds = time.perf_counter() - started
     runner.wall_time += seconds   # planning is part of the run's training time
     plans = [plan for plan in plans if plan.complete and plan.logic_violations == 0]
@@ -76,8 +86,11 @@ def offer_teacher_plan(runner: Runner, log: Callable[[str], None] = print) -> No
         log(f"teacher {runner.config.teacher}: no complete schedule in {seconds:.1f} s; nothing offered")
         return
     refused = []
+    none = scenario.n_tasks
     for plan in plans:   # the best known first; the GA's when the in-turn decision cannot take it
-        outside = runner.offer_plan(plan.joint_actions)
+        # Event mode: the plan's routes carried out as the episode's events come.
+        actions = partial(_route_actions, plan.robot_tasks, none) if event else plan.joint_actions
+        outside = runner.offer_plan(actions)
         if outside is None:
             log(f"teacher {runner.config.teacher}: {''.join(r + ' ' for r in refused)}a schedule of "
                 f"{plan.makespan:.2f} s offered to self-imitation ({seconds:.1f} s)")

@@ -5,6 +5,13 @@ environment is one "step"; its N robots are trained together so the critic's glo
 stored once per step. Episode ends split into `terminated` (all tasks reached: the return
 stops there) and `truncated` (timeout/abort: the return continues with the critic's value of
 the final state), following "Time Limits in Reinforcement Learning" (Pardo et al., 2018).
+
+Event mode (env/event_env.py): a step is a decision instant at which only some robots decide
+(`acting`); the others' rows are kept for the critic and for their returns, which run through
+every transition (their rewards accrue while they drive), but their actions are not trained on and
+their recurrent state does not advance. Each transition is discounted by its own `discount`,
+γ^(Δt / discount_seconds) for its length Δt (semi-MDP returns); in synchronous mode every step
+is discounted by γ and every robot acts.
 """
 from __future__ import annotations
 
@@ -23,7 +30,7 @@ class GaeResult:
 
 def compute_gae(rewards: torch.Tensor, values: torch.Tensor, next_values: torch.Tensor,
                 terminated: torch.Tensor, episode_end: torch.Tensor,
-                gamma: float, gae_lambda: float) -> GaeResult:
+                gamma, gae_lambda: float) -> GaeResult:
     """GAE over time (dim 0) for any trailing shape.
 
     next_values[t] is the value of the state reached by step t: the next step's state inside
@@ -36,8 +43,10 @@ def compute_gae(rewards: torch.Tensor, values: torch.Tensor, next_values: torch.
     deltas = rewards + gamma * next_values * bootstrap - values
     advantages = torch.zeros_like(rewards)
     running = torch.zeros_like(rewards[0])
+    # A number: one decay for every step (computed as it always was); per step: event mode's γ^Δt.
+    decay = gamma * gae_lambda if torch.is_tensor(gamma) else [gamma * gae_lambda] * rewards.shape[0]
     for t in reversed(range(rewards.shape[0])):
-        running = deltas[t] + gamma * gae_lambda * carry[t] * running
+        running = deltas[t] + decay[t] * carry[t] * running
         advantages[t] = running
     return GaeResult(advantages=advantages, returns=advantages + values)
 
@@ -56,6 +65,7 @@ class Minibatch:
     advantages: torch.Tensor     # (L, B, N)
     episode_start: torch.Tensor  # (L, B) bool
     actor_hidden: torch.Tensor   # (B, N, H) GRU state carried into each chunk's first step
+    acting: torch.Tensor         # (L, B, N) bool: the robot decided at this step (event mode; else all)
 
 
 class RolloutBuffer:
@@ -77,13 +87,17 @@ class RolloutBuffer:
         self.truncated = torch.zeros(T, E, dtype=torch.bool)
         self.final_values = torch.zeros(T, E, N)
         self.actor_hidden = torch.zeros(T, E, N, hidden_size)
+        self.acting = torch.ones(T, E, N, dtype=torch.bool)
+        self.discounts = torch.ones(T, E, 1)
         self.advantages = torch.zeros(T, E, N)
         self.returns = torch.zeros(T, E, N)
         self.step = 0
 
     def insert(self, *, obs, state, actions, action_mask, log_probs, values, rewards,
-               episode_start, terminated, truncated, final_values, actor_hidden) -> None:
-        """Store one step of every environment (tensors shaped like one time slice)."""
+               episode_start, terminated, truncated, final_values, actor_hidden, acting=None, discount=None) -> None:
+        """Store one step of every environment (tensors shaped like one time slice); acting (E, N)
+        and discount (E, 1): event mode's (default: every robot acts, discount 1: compute_returns's
+        gamma applies)."""
         t = self.step
         assert t < self.rollout_length, "buffer full: call compute_returns() and reset()"
         for name, value in (("obs", obs), ("state", state), ("actions", actions), ("action_mask", action_mask),
@@ -91,6 +105,8 @@ class RolloutBuffer:
                             ("episode_start", episode_start), ("terminated", terminated), ("truncated", truncated),
                             ("final_values", final_values), ("actor_hidden", actor_hidden)):
             getattr(self, name)[t] = value
+        self.acting[t] = True if acting is None else acting
+        self.discounts[t] = 1.0 if discount is None else discount
         self.step += 1
 
     @property
@@ -100,8 +116,10 @@ class RolloutBuffer:
     def reset(self) -> None:
         self.step = 0
 
-    def compute_returns(self, last_values: torch.Tensor, gamma: float, gae_lambda: float) -> None:
-        """Advantages and returns; last_values (E, N) = V(state after the last stored step)."""
+    def compute_returns(self, last_values: torch.Tensor, gamma: float, gae_lambda: float,
+                        per_step_discounts: bool = False) -> None:
+        """Advantages and returns; last_values (E, N) = V(state after the last stored step).
+        per_step_discounts: each step's stored discount (event mode) instead of gamma."""
         assert self.full, "compute_returns() needs a full buffer"
         next_values = torch.cat([self.values[1:], last_values.unsqueeze(0)])
         truncated = self.truncated.unsqueeze(-1)
@@ -109,7 +127,7 @@ class RolloutBuffer:
         result = compute_gae(self.rewards, self.values, next_values,
                              terminated=self.terminated.unsqueeze(-1),
                              episode_end=(self.terminated | self.truncated).unsqueeze(-1),
-                             gamma=gamma, gae_lambda=gae_lambda)
+                             gamma=self.discounts if per_step_discounts else gamma, gae_lambda=gae_lambda)
         self.advantages, self.returns = result.advantages, result.returns
 
     def minibatches(self, chunk_length: int, n_minibatches: int,
@@ -138,4 +156,5 @@ class RolloutBuffer:
                 advantages=self.advantages[time, env_tb],
                 episode_start=self.episode_start[time, env_tb],
                 actor_hidden=self.actor_hidden[start, env],
+                acting=self.acting[time, env_tb],
             )

@@ -96,6 +96,17 @@ def turns_from_rows(rows: torch.Tensor, task_slots: int) -> torch.Tensor:
     return ((padded * (layout.robot_slots + 1) + before) * layout.robot_slots + slots).argsort(dim=-1)
 
 
+def busy_claims(robot_tasks: Sequence[Optional[int]], deciding: Sequence[bool], n_tasks: int) -> torch.Tensor:
+    """Event mode: the tasks of the robots that do not decide now (they drive to, hold at or serve
+    them), as decide_in_turn's marks (n_tasks,) long: k + 1 for robot k's task, 0 for a free one.
+    A robot that comes free decides with these already claimed."""
+    claimed = torch.zeros(n_tasks, dtype=torch.long)
+    for robot, (task, free) in enumerate(zip(robot_tasks, deciding)):
+        if task is not None and task >= 0 and not free:
+            claimed[int(task)] = robot + 1
+    return claimed
+
+
 def without_claimed(action_mask: torch.Tensor, claimed: torch.Tensor) -> torch.Tensor:
     """Mask (..., n_tasks + 1) with the claimed tasks forbidden; None (last) is left as it was."""
     free = torch.cat([~claimed, torch.ones_like(claimed[..., :1])], dim=-1)
@@ -149,7 +160,7 @@ class ClaimRules:
 
     def decide_in_turn(self, env_mask: torch.Tensor,
                        decide: Callable[[torch.Tensor, torch.Tensor, torch.Tensor], torch.Tensor],
-                       order: Optional[torch.Tensor] = None) -> torch.Tensor:
+                       order: Optional[torch.Tensor] = None, claimed: Optional[torch.Tensor] = None) -> torch.Tensor:
         """The one in-turn decision: robots choose one after another, each offered the
         environment's mask narrowed by the tasks the robots before it claimed in this step.
 
@@ -158,11 +169,12 @@ class ClaimRules:
         (...,) long, claimed (..., n_tasks) long, mask (..., n_tasks + 1) bool) -> that robot's
         actions (...,) long, for every leading index at once (environments). claimed[j] is 0 for
         a free task and k + 1 for a task robot k claimed (the robots' own actors read
-        `claimed > 0`; the set actor also whose trip it is). Returns the actions (..., N)."""
+        `claimed > 0`; the set actor also whose trip it is); `claimed` (..., n_tasks) long starts
+        it (event mode: the tasks of robots that are busy, busy_claims). Returns the actions (..., N)."""
         lead, n = env_mask.shape[:-2], env_mask.shape[-2]
         if order is None:
             order = torch.arange(n).expand(*lead, n)
-        claimed = torch.zeros(*lead, self.n_tasks, dtype=torch.long)
+        claimed = torch.zeros(*lead, self.n_tasks, dtype=torch.long) if claimed is None else claimed.clone()
         actions = torch.zeros(*lead, n, dtype=torch.long)
         for turn in range(n):
             robot = order[..., turn]

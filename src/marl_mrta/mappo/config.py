@@ -15,7 +15,7 @@ from typing import Any, Dict, Optional, Tuple, Union
 from marl_mrta.common.config import ConfigError, ConfigSection, read_yaml
 from marl_mrta.common.paths import package_root
 from marl_mrta.env.observation import TURN_ORDERS
-from marl_mrta.env.settings import MASK_MODES
+from marl_mrta.env.settings import DECISION_MODES, MASK_MODES
 from marl_mrta.model.reward import check_reward_overrides
 
 # How the robots of a step decide (claims.py). Here, so that reading settings needs no torch
@@ -66,6 +66,9 @@ class MappoConfig:
     turn_order: str = setting("index", "who chooses first when deciding in sequence: index (robot 0) | nearest_ready: "
                               "the robot with the shortest leg to a ready task (actor: set; env/observation.py)",
                               choices=TURN_ORDERS)
+    decision_mode: str = setting("synchronous", "the decision process trained in: synchronous (the paper's steps) | "
+                                 "event: a robot decides when it comes free (env/event_env.py); train --decision-mode",
+                                 choices=DECISION_MODES)
     noise_profile: str = setting("ideal", "embedded executor noise profile, a name in config/noise_profiles.yaml")
     hold_successors: bool = setting(False, "train under the step rules' hold (real.launch's default): a robot early at "
                                     "a successor waits for its predecessors instead of doing it out of order, so the "
@@ -77,7 +80,10 @@ class MappoConfig:
                                      "team's return then falls with the makespan whatever the scenario's t_avg")
 
     # Returns and advantages
-    gamma: float = setting(0.98, "discount factor γ", low=0.0, high=1.0)
+    gamma: float = setting(0.98, "discount factor γ: per decision step (synchronous), per discount_seconds of elapsed "
+                           "time (event mode: γ^(Δt / discount_seconds) over a transition of Δt)", low=0.0, high=1.0)
+    discount_seconds: float = setting(10.0, "event mode: the elapsed time over which γ discounts once (about one step "
+                                      "of the paper's lab)", low=0.0, low_open=True)
     gae_lambda: float = setting(0.95, "GAE λ (not given by the paper; the usual value)", low=0.0, high=1.0)
     team_reward: bool = setting(True, "train every robot on the mean of all robots' rewards (the paper's team reward) instead of its own")
     own_reward_share: float = setting(0.0, "with team_reward: share of a robot's own reward beside the team mean "

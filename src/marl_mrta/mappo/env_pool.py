@@ -62,13 +62,18 @@ class PoolStep:
     truncated: np.ndarray        # (E,) bool: episode ended by timeout or abort
     final_state: np.ndarray      # (E, state_dim) last state of an ended episode (else = state)
     finished: List[EpisodeSummary] = field(default_factory=list)
+    # Event mode (all robots, every step, in synchronous mode):
+    deciding: Optional[np.ndarray] = None   # (E, N) bool: the robots that decide next
+    busy: Optional[np.ndarray] = None       # (E, N) int64: each robot's task (driving, holding, serving), -1 none
+    elapsed: Optional[np.ndarray] = None    # (E,) s: how long the step just taken lasted (0 after a reset)
 
     def row(self, i: int) -> "PoolStep":
         """Environment i alone (rows of the result: 1; no finished episodes)."""
         rows = slice(i, i + 1)
         return PoolStep(obs=self.obs[rows], state=self.state[rows], action_mask=self.action_mask[rows],
                         rewards=self.rewards[rows], terminated=self.terminated[rows], truncated=self.truncated[rows],
-                        final_state=self.final_state[rows])
+                        final_state=self.final_state[rows], deciding=self.deciding[rows], busy=self.busy[rows],
+                        elapsed=self.elapsed[rows])
 
 
 class EpisodeTally:
@@ -154,6 +159,15 @@ class EnvPool:
         return self._current(np.zeros((self.n_envs, self.n_agents), np.float32),
                              np.zeros(self.n_envs, bool), np.zeros(self.n_envs, bool), [])
 
+    @staticmethod
+    def deciding_of(out: StepOutput, n_agents: int) -> np.ndarray:
+        return np.ones(n_agents, bool) if out.deciding is None else np.asarray(out.deciding, bool)
+
+    @staticmethod
+    def busy_of(out: StepOutput, n_agents: int) -> np.ndarray:
+        tasks = out.info.robot_tasks or [None] * n_agents
+        return np.array([-1 if t is None else int(t) for t in tasks], dtype=np.int64)
+
     def reset(self) -> PoolStep:
         """Start the first episode of every environment."""
         self.map(self._reset)
@@ -164,9 +178,10 @@ class EnvPool:
         self.episode_index = [k + 1 for k in self.episode_index]
         return self.reset()
 
-    def _current(self, rewards, terminated, truncated, finished, final_state=None) -> PoolStep:
+    def _current(self, rewards, terminated, truncated, finished, final_state=None, elapsed=None) -> PoolStep:
         latest = self._latest
         state = np.stack([o.state for o in latest])
+        n = self.n_agents
         return PoolStep(
             obs=np.stack([o.obs for o in latest]),
             state=state,
@@ -174,6 +189,9 @@ class EnvPool:
             rewards=rewards, terminated=terminated, truncated=truncated,
             final_state=state.copy() if final_state is None else final_state,
             finished=finished,
+            deciding=np.stack([self.deciding_of(o, n) for o in latest]),
+            busy=np.stack([self.busy_of(o, n) for o in latest]),
+            elapsed=np.zeros(self.n_envs, np.float64) if elapsed is None else elapsed,
         )
 
     def step(self, actions: np.ndarray) -> PoolStep:
@@ -182,6 +200,7 @@ class EnvPool:
         terminated = np.zeros(self.n_envs, bool)
         truncated = np.zeros(self.n_envs, bool)
         final_state = np.zeros((self.n_envs, self.state_dim), np.float32)
+        elapsed = np.zeros(self.n_envs, np.float64)
         finished: List[EpisodeSummary] = []
         joints = [[int(a) for a in actions[i]] for i in range(self.n_envs)]
         outputs = self.map(lambda i: self.envs[i].step(joints[i]))
@@ -189,6 +208,7 @@ class EnvPool:
             summary = self._took(i, joints[i], out)
             rewards[i] = out.rewards
             final_state[i] = out.state
+            elapsed[i] = out.info.step_duration
             if summary is not None:
                 terminated[i], truncated[i] = bool(out.done), not out.done
                 finished.append(summary)
@@ -198,7 +218,7 @@ class EnvPool:
                 self._reset(i)
         else:
             list(self._threads.map(self._reset, ended))
-        return self._current(rewards, terminated, truncated, finished, final_state)
+        return self._current(rewards, terminated, truncated, finished, final_state, elapsed)
 
     def step_one(self, i: int, actions: np.ndarray) -> PoolStep:
         """Environment i alone, joint actions (N,): step() for one row (rows of the result: 1).
@@ -216,7 +236,10 @@ class EnvPool:
                         terminated=np.array([ended and bool(out.done)]),
                         truncated=np.array([ended and not out.done]),
                         final_state=np.asarray(out.state, np.float32)[None],
-                        finished=[summary] if ended else [])
+                        finished=[summary] if ended else [],
+                        deciding=self.deciding_of(latest, self.n_agents)[None],
+                        busy=self.busy_of(latest, self.n_agents)[None],
+                        elapsed=np.array([out.info.step_duration], np.float64))
 
     def _took(self, i: int, joint: List[int], out: StepOutput) -> Optional[EpisodeSummary]:
         """Books environment i's step; an episode it ended is recorded (returned), not yet reset."""

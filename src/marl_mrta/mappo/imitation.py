@@ -14,16 +14,23 @@ slots of the batch (SetLayout.pad); each robot of a demonstration is one sequenc
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable, Dict, List, Optional, Sequence
+from typing import Callable, Dict, List, Optional, Sequence, Union
 
 import numpy as np
 import torch
 
-from marl_mrta.env.api import TaskAllocationEnv
+from marl_mrta.env.api import StepOutput, TaskAllocationEnv
 from marl_mrta.env.observation import SetLayout
-from marl_mrta.mappo.claims import ClaimRules, is_sequential, turns_from_rows, with_set_claims
+from marl_mrta.mappo.claims import ClaimRules, busy_claims, is_sequential, turns_from_rows, with_set_claims
 from marl_mrta.mappo.set_networks import SetActor
 from marl_mrta.mappo.set_view import SetView, slot_mask
+
+
+#: A plan's actions: per step, a task index or None per robot; or a function of each step's output
+#: that gives them (event mode, where the steps depend on when robots come free).
+PlannedActions = Union[Sequence[Sequence[Optional[int]]], Callable[[StepOutput], Sequence[Optional[int]]]]
+#: Steps after which a demonstration given by a function stops.
+MAX_STEPS = 10_000
 
 
 @dataclass
@@ -36,12 +43,15 @@ class Demonstration:
     allowed: np.ndarray    # (T, N) bool: the plan's action is open to the robot (examples of the loss)
     layout: SetLayout
     makespan: float        # s, of the replayed episode
+    acting: Optional[np.ndarray] = None   # (T, N) bool: the robot decided at the step (event mode)
 
 
-def demonstrate(env: TaskAllocationEnv, view: SetView, joint_actions: Sequence[Sequence[Optional[int]]],
+def demonstrate(env: TaskAllocationEnv, view: SetView, joint_actions: PlannedActions,
                 decision_order: str, seed: int = 0) -> Demonstration:
     """Replay a plan's joint actions (task index or None per robot and step) in `env` (episode
-    reset with `seed`), recording what each robot saw and was told to do."""
+    reset with `seed`), recording what each robot saw and was told to do. Event mode: only the
+    robots that decide at a step give examples, the tasks of busy robots claimed before them; the
+    actions may come from a function of each step's output (a plan's routes, route_actions)."""
     n, none = env.n_agents, env.n_actions - 1
     rules = ClaimRules(decision_order, env.scenario.predecessors)
     sequential = is_sequential(decision_order)
@@ -49,32 +59,39 @@ def demonstrate(env: TaskAllocationEnv, view: SetView, joint_actions: Sequence[S
     rows_t: List[np.ndarray] = []
     masks_t: List[np.ndarray] = []
     actions_t: List[List[int]] = []
-    for joint in joint_actions:
+    acting_t: List[np.ndarray] = []
+    steps = range(MAX_STEPS) if callable(joint_actions) else range(len(joint_actions))
+    for k in steps:
+        joint = joint_actions(out) if callable(joint_actions) else joint_actions[k]
         planned = [none if a is None else int(a) for a in joint]
         rows = torch.as_tensor(view.rows(out.obs, range(n), sequential))
         seen = rows.clone()
         masks = torch.zeros(n, none + 1, dtype=torch.bool)
+        deciding = np.ones(n, dtype=bool) if out.deciding is None else np.asarray(out.deciding, dtype=bool)
 
         def decide(robot: torch.Tensor, claimed: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
             i = int(robot)
             if sequential:
                 seen[i] = with_set_claims(rows[i:i + 1], claimed.unsqueeze(0), rules.precedence)[0]
             masks[i] = mask
-            return torch.tensor(planned[i])
+            return torch.tensor(planned[i] if deciding[i] else none)
 
+        claimed = None if out.deciding is None else busy_claims(out.info.robot_tasks, deciding, none)
         rules.decide_in_turn(torch.as_tensor(np.asarray(out.action_mask, dtype=bool)), decide,
-                             turns_from_rows(rows, none) if sequential else None)
+                             turns_from_rows(rows, none) if sequential else None, claimed)
         rows_t.append(seen.numpy())
         masks_t.append(masks.numpy())
         actions_t.append(planned)
+        acting_t.append(deciding)
         out = env.step(planned)
         if out.done or out.truncated:
             break
     actions = np.array(actions_t, dtype=np.int64)
     masks = np.stack(masks_t)
-    allowed = np.take_along_axis(masks, actions[..., None], axis=-1)[..., 0]
+    allowed = np.take_along_axis(masks, actions[..., None], axis=-1)[..., 0] & np.stack(acting_t)
     makespan = out.info.episode.makespan if out.info.episode is not None else float("nan")
-    return Demonstration(np.stack(rows_t), masks, actions, allowed, view.layout, float(makespan))
+    return Demonstration(np.stack(rows_t), masks, actions, allowed, view.layout, float(makespan),
+                         np.stack(acting_t))
 
 
 @dataclass
@@ -192,12 +209,13 @@ class SelfImitation:
             self.best_makespan, self.best_seed, self.best_actions = makespan, seed, [list(j) for j in joint_actions]
             self.best_source = source
 
-    def offer_plan(self, env: TaskAllocationEnv, view: SetView, joint_actions: Sequence[Sequence[Optional[int]]],
+    def offer_plan(self, env: TaskAllocationEnv, view: SetView, joint_actions: PlannedActions,
                    source: str) -> Optional[int]:
         """A planner's schedule, replayed as an episode of seed 0: offered when the in-turn decision
         can take every one of its actions; else the first step it cannot take, and nothing offered."""
         demo = demonstrate(env, view, joint_actions, self.decision_order, seed=0)
-        outside = np.flatnonzero(~demo.allowed.all(axis=1))
+        acting = demo.acting if demo.acting is not None else np.ones_like(demo.allowed)
+        outside = np.flatnonzero(~(demo.allowed | ~acting).all(axis=1))
         if outside.size:
             return int(outside[0])
         self.offer(demo.makespan, 0, demo.actions.tolist(), source)   # as sampled: None is the last action

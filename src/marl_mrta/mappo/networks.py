@@ -72,16 +72,19 @@ class Actor(nn.Module):
         return torch.zeros(batch, self.hidden_size)
 
     def forward(self, obs: torch.Tensor, hidden: torch.Tensor, episode_start: torch.Tensor,
-                action_mask: Optional[torch.Tensor] = None) -> ActorOutput:
+                action_mask: Optional[torch.Tensor] = None, acting: Optional[torch.Tensor] = None) -> ActorOutput:
         """Run a sequence. obs (T, B, obs_dim), hidden (B, H) before step 0, episode_start
         (T, B) bool: True where obs[t] is the first observation of an episode, so the state
-        carried into step t is zeroed. action_mask (T, B, n_actions) bool or None."""
+        carried into step t is zeroed. action_mask (T, B, n_actions) bool or None. acting (T, B)
+        bool (event mode): where False the robot does not decide at step t and its state carries
+        over unchanged (its logits there are not used)."""
         features = self.encoder(obs)
         outputs = []
         for t in range(obs.shape[0]):
             hidden = hidden * (~episode_start[t]).unsqueeze(-1).to(hidden.dtype)
-            hidden = self.gru(features[t], hidden)
-            outputs.append(hidden)
+            stepped = self.gru(features[t], hidden)
+            outputs.append(stepped)
+            hidden = stepped if acting is None else torch.where(acting[t].unsqueeze(-1), stepped, hidden)
         logits = self.head(self.gru_norm(torch.stack(outputs)))
         mask = None if action_mask is None else action_mask
         return ActorOutput(logits=masked_logits(logits, mask), hidden=hidden)

@@ -136,29 +136,42 @@ class ActorPolicy:
 
     @torch.no_grad()
     def act_team(self, obs: np.ndarray, action_mask: Optional[np.ndarray], hidden: torch.Tensor,
-                 deterministic: bool = True, pick: Optional[TurnPick] = None) -> Tuple[np.ndarray, torch.Tensor]:
+                 deterministic: bool = True, pick: Optional[TurnPick] = None,
+                 deciding: Optional[np.ndarray] = None, claimed: Optional[torch.Tensor] = None
+                 ) -> Tuple[np.ndarray, torch.Tensor]:
         """One decision of the whole team (robots 0..n-1), in the order the actor was trained
         with: at once, or one after another with the tasks claimed so far (mappo/claims.py).
         pick(turn, robot, logits, mask, claimed) (sequential actors only) sees each turn's distribution and may
-        return the action instead of the actor's own choice (None: the actor's)."""
+        return the action instead of the actor's own choice (None: the actor's). Event mode:
+        `deciding` (n,) bool names the robots that decide (the others' actions are None and their
+        recurrent state stays as it was), `claimed` (n_tasks,) long the tasks of busy robots
+        (claims.busy_claims), claimed before the first turn."""
         if not self.sequential:
             if pick is not None:
                 raise ValueError(f"{self.source}: the robots of this actor decide at once, not in turn")
-            return self.act(obs, action_mask, hidden, deterministic)
+            actions, new_hidden = self.act(obs, action_mask, hidden, deterministic)
+            if deciding is not None:
+                free = torch.as_tensor(np.asarray(deciding, dtype=bool))
+                actions = np.where(np.asarray(deciding, dtype=bool), actions, self.n_actions - 1)
+                new_hidden = torch.where(free.unsqueeze(-1), new_hidden, hidden)
+            return actions, new_hidden
         rows = self.encode(np.asarray(obs, dtype=np.float32), range(len(obs)))   # once for every turn
         env_mask = torch.ones(len(rows), self.n_actions, dtype=torch.bool) if action_mask is None \
             else torch.as_tensor(np.asarray(action_mask, dtype=bool))
         hidden_rows = [hidden[i:i + 1] for i in range(len(rows))]
         turn = iter(range(len(rows)))
+        none = torch.tensor(self.n_actions - 1)
 
         def decide(robot: torch.Tensor, claimed: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
             i = int(robot)
+            if deciding is not None and not deciding[i]:
+                return none
             logits, mask_t, hidden_rows[i] = self._logits_of_rows(rows[i:i + 1], mask[None], hidden[i:i + 1], [i],
                                                                   claimed.numpy()[None])
             chosen = None if pick is None else pick(next(turn), i, logits[0], mask_t[0], claimed > 0)
             return self._pick(logits, mask_t, deterministic)[0] if chosen is None else torch.tensor(chosen)
 
-        actions = self.claim_rules.decide_in_turn(env_mask, decide, self.turns_of_rows(rows))
+        actions = self.claim_rules.decide_in_turn(env_mask, decide, self.turns_of_rows(rows), claimed)
         return actions.numpy().astype(np.int64), torch.cat(hidden_rows, 0)
 
     def turns(self, obs: np.ndarray) -> Optional[torch.Tensor]:

@@ -402,10 +402,16 @@ class Runner:
         final_values = torch.zeros(E, N)
         if result.truncated.any():
             final_values = self.trainer.values(torch.from_numpy(result.final_state).float())
+        event = {}
+        if self.event_mode:   # who decided at `step`, and the transition's discount γ^(Δt / discount_seconds)
+            elapsed = torch.from_numpy(np.asarray(result.elapsed, dtype=np.float64))
+            event = dict(acting=torch.from_numpy(step.deciding),
+                         discount=(c.gamma ** (elapsed / c.discount_seconds)).float().unsqueeze(-1))
         return dict(obs=choice.obs, state=choice.state, actions=choice.actions, action_mask=choice.mask,
                     log_probs=choice.log_probs, values=choice.values, rewards=rewards * c.reward_scale,
                     episode_start=episode_start, terminated=torch.from_numpy(result.terminated),
-                    truncated=torch.from_numpy(result.truncated), final_values=final_values, actor_hidden=hidden)
+                    truncated=torch.from_numpy(result.truncated), final_values=final_values, actor_hidden=hidden,
+                    **event)
 
     def _choose(self, step: PoolStep, hidden: torch.Tensor, episode_start: torch.Tensor,
                 rows: Optional[Sequence[int]] = None) -> _Choice:
@@ -418,6 +424,9 @@ class Runner:
         env_obs, env_mask = torch.from_numpy(step.obs).float(), torch.from_numpy(step.action_mask)
         E, N = env_obs.shape[:2]
         trainer = self.trainer
+        # Event mode: robots that do not decide keep their recurrent state (their rows' actions
+        # are None, forced by their masks, and not trained on).
+        deciding = torch.from_numpy(step.deciding) if self.event_mode else None
         if not trainer.sequential:
             obs = trainer.actor_obs(env_obs)
             out = trainer.actor(obs.reshape(1, E * N, -1), hidden.reshape(E * N, -1),
@@ -425,7 +434,10 @@ class Runner:
             logits = out.logits[0]
             actions = sample_actions(logits, self.action_generator)
             log_probs, _ = log_prob_and_entropy(logits, actions)
-            return _Choice(obs, env_mask, actions.reshape(E, N), log_probs.reshape(E, N), out.hidden.reshape(E, N, -1),
+            next_hidden = out.hidden.reshape(E, N, -1)
+            if deciding is not None:
+                next_hidden = torch.where(deciding.unsqueeze(-1), next_hidden, hidden * (~episode_start).view(E, 1, 1))
+            return _Choice(obs, env_mask, actions.reshape(E, N), log_probs.reshape(E, N), next_hidden,
                            state, trainer.values(state))
         # Robots in turn, each seeing the tasks claimed before it (mappo/claims.py); the set
         # actor's rows say whose turn comes when (turn_order), per environment.
@@ -440,6 +452,13 @@ class Runner:
         order = turns_from_rows(env_obs, env_mask.shape[-1] - 1) if self.config.actor == "set" else None
 
         def decide(robot: torch.Tensor, claimed: torch.Tensor, mask_i: torch.Tensor) -> torch.Tensor:
+            if deciding is not None:   # robots that do not decide: None, state kept, nothing claimed
+                idle = ~deciding[at, robot]
+                if bool(idle.all()):
+                    obs[at, robot] = env_obs[at, robot] if self.config.actor == "set" else obs[at, robot]
+                    mask[at, robot] = mask_i
+                    next_hidden[at, robot] = hidden[at, robot] * (~episode_start).unsqueeze(-1).to(hidden.dtype)
+                    return torch.full_like(robot, env_mask.shape[-1] - 1)
             if self.config.actor == "set":
                 obs_i = with_set_claims(env_obs[at, robot], claimed, rules.precedence)
             else:
@@ -452,15 +471,33 @@ class Runner:
             log_prob_i, _ = log_prob_and_entropy(logits, action_i)
             obs[at, robot], mask[at, robot] = obs_i, mask_i
             log_probs[at, robot], next_hidden[at, robot] = log_prob_i, out.hidden
+            if deciding is not None:
+                idle = ~deciding[at, robot]
+                kept = hidden[at, robot] * (~episode_start).unsqueeze(-1).to(hidden.dtype)
+                next_hidden[at, robot] = torch.where(idle.unsqueeze(-1), kept, out.hidden)
+                action_i = torch.where(idle, torch.full_like(action_i, env_mask.shape[-1] - 1), action_i)
             return action_i
 
-        actions = rules.decide_in_turn(env_mask, decide, order)
+        claimed0 = None
+        if deciding is not None:   # the tasks of busy robots are claimed before the first turn
+            busy = torch.from_numpy(step.busy)
+            robots = torch.arange(N).expand(E, N)
+            marks = torch.where((busy >= 0) & ~deciding, robots + 1, torch.zeros_like(robots))
+            claimed0 = torch.zeros(E, rules.n_tasks + 1, dtype=torch.long)
+            claimed0.scatter_(1, torch.where(busy >= 0, busy, torch.full_like(busy, rules.n_tasks)), marks)
+            claimed0 = claimed0[:, :rules.n_tasks]
+        actions = rules.decide_in_turn(env_mask, decide, order, claimed0)
         return _Choice(obs, mask, actions, log_probs, next_hidden, state, trainer.values(state))
 
     @torch.no_grad()
     def compute(self) -> None:
         last_values = self.trainer.values(torch.from_numpy(self.current.state).float())
-        self.buffer.compute_returns(last_values, self.config.gamma, self.config.gae_lambda)
+        self.buffer.compute_returns(last_values, self.config.gamma, self.config.gae_lambda,
+                                    per_step_discounts=self.event_mode)
+
+    @property
+    def event_mode(self) -> bool:
+        return self.config.decision_mode == "event"
 
     def train_one_update(self) -> Dict[str, float]:
         """collect → compute → train: one PPO update (the unit of checkpoints and resume)."""

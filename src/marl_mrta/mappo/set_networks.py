@@ -143,7 +143,7 @@ class SetActor(nn.Module):
         return torch.zeros(batch, self.hidden_size)
 
     def forward(self, obs: torch.Tensor, hidden: torch.Tensor, episode_start: torch.Tensor,
-                action_mask: torch.Tensor) -> ActorOutput:
+                action_mask: torch.Tensor, acting: Optional[torch.Tensor] = None) -> ActorOutput:
         """As networks.Actor.forward; obs (T, B, width) set rows, action_mask (T, B, task_slots + 1)
         (required: it tells the task slots)."""
         T, B = obs.shape[:2]
@@ -165,8 +165,9 @@ class SetActor(nn.Module):
         outputs = []
         for t in range(T):
             hidden = hidden * (~episode_start[t]).unsqueeze(-1).to(hidden.dtype)
-            hidden = self.gru(context[t], hidden)
-            outputs.append(hidden)
+            stepped = self.gru(context[t], hidden)
+            outputs.append(stepped)
+            hidden = stepped if acting is None else torch.where(acting[t].unsqueeze(-1), stepped, hidden)
         state = self.gru_norm(torch.stack(outputs)).reshape(T * B, -1)
         per_task = torch.cat([tasks, state.unsqueeze(1).expand(-1, task_slots, -1), my_travel.unsqueeze(-1)], dim=-1)
         task_logits = self.task_score(per_task).squeeze(-1)

@@ -120,10 +120,16 @@ class SetViewEnv:
         rows = self.view.rows(out.obs, range(n), self.sequential, self.layout)
         obs = np.zeros((self.n_agents, self.obs_dim), dtype=np.float32)
         obs[:n] = rows
+        deciding = None
+        if out.deciding is not None:   # event mode: padded robots never decide and hold no task
+            deciding = np.zeros(self.n_agents, dtype=bool)
+            deciding[:n] = out.deciding
+            out.info.robot_tasks = list(out.info.robot_tasks) + [None] * (self.n_agents - n)
         return dataclasses.replace(
             out, obs=obs, state=self.view.encoder.state(rows, self.layout),
             rewards=self._pad(out.rewards), reward_components={k: self._pad(v) for k, v in out.reward_components.items()},
-            action_mask=slot_mask(np.asarray(out.action_mask, dtype=bool), self.n_agents, self.n_actions - 1))
+            action_mask=slot_mask(np.asarray(out.action_mask, dtype=bool), self.n_agents, self.n_actions - 1),
+            deciding=deciding)
 
     def _pad(self, values: np.ndarray) -> np.ndarray:
         """Per robot values with padded robots given the mean of the real ones (the team's)."""

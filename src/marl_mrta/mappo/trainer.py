@@ -129,17 +129,24 @@ class MappoTrainer:
     def _minibatch_step(self, batch: Minibatch, train_actor: bool = True) -> Dict[str, float]:
         c = self.config
         L, B, N = batch.actions.shape
+        acting = batch.acting.reshape(L, B * N)
+        everyone = bool(acting.all())   # synchronous mode: every robot decides every step
         actor_out = self.actor(
             batch.obs.reshape(L, B * N, -1),
             batch.actor_hidden.reshape(B * N, -1),
             batch.episode_start.unsqueeze(-1).expand(L, B, N).reshape(L, B * N),
             batch.action_mask.reshape(L, B * N, -1),
+            *(() if everyone else (acting,)),
         )
         new_log_probs, entropy = log_prob_and_entropy(actor_out.logits, batch.actions.reshape(L, B * N))
         advantages = batch.advantages.reshape(L, B * N)
+        old_log_probs = batch.old_log_probs.reshape(L, B * N)
+        if not everyone:   # event mode: only the decisions taken are trained on
+            new_log_probs, entropy = new_log_probs[acting], entropy[acting]
+            advantages, old_log_probs = advantages[acting], old_log_probs[acting]
         if c.normalize_advantages:
             advantages = (advantages - advantages.mean()) / (advantages.std(unbiased=False) + 1e-8)
-        policy = clipped_surrogate(new_log_probs, batch.old_log_probs.reshape(L, B * N), advantages, c.clip_coef)
+        policy = clipped_surrogate(new_log_probs, old_log_probs, advantages, c.clip_coef)
         entropy_mean = entropy.mean()
 
         values = self.critic(batch.state)                         # (L, B, N), normalised units

@@ -54,7 +54,8 @@ def embedded_factory(scenario: Union[str, Scenario], config: MappoConfig) -> Cal
     bad settings fail here, before any training."""
     loaded = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
     build = partial(make_env, with_training_reward(loaded, run_overrides(loaded, config)), "embedded",
-                    profile=config.noise_profile, mask=config.action_mask, hold_successors=config.hold_successors)
+                    profile=config.noise_profile, mask=config.action_mask, hold_successors=config.hold_successors,
+                    decision_mode=config.decision_mode)
     build()
     return build
 

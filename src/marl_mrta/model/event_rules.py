@@ -1,7 +1,7 @@
 """The task rules of event mode: a robot decides when it comes free, while the others keep driving.
 
 The state machine of one episode's tasks and robots, shared by the environment (env/event_env.py)
-over any executor and by the planners' check of their fast schedule (baselines/event_plan.py).
+over any executor and by the planners' check of their fast schedule (baselines/plan.py).
 Times are absolute (s from the episode's start); the executor says when a leg ends, these rules
 say everything else:
 
@@ -228,3 +228,15 @@ class EventRules:
         """The state in plain values (tests, logs)."""
         return {"phases": [r.phase for r in self.robots], "tasks": [r.task for r in self.robots],
                 "finished": list(self.finished), "due": sorted(self.due)}
+
+
+def route_actions(routes: Sequence[Sequence[int]], finished: Sequence[bool], deciding: Sequence[bool],
+                  none: int) -> List[int]:
+    """Routes carried out as events: each deciding robot takes the first task of its route that is
+    not finished (a leg that failed is driven again), or None (`none`) when its route is done; the
+    other robots' actions are None (ignored). The one rule of a plan's event dispatch."""
+    actions = [none] * len(deciding)
+    for robot, free in enumerate(deciding):
+        if free and robot < len(routes):
+            actions[robot] = next((task for task in routes[robot] if not finished[task]), none)
+    return actions

@@ -189,3 +189,28 @@ def step_rewards(config: RewardConfig, has_task: Sequence[bool], correct_order: 
         idle.append(r_idle)
         total.append(w_logic * r_logic + w_time * r_nav + w_col * r_col + w_idle * r_idle)
     return RewardBreakdown(logic, nav, collision, idle, total)
+
+
+def event_rewards(config: RewardConfig, ended: Sequence[bool], finished: Sequence[bool], nav_time: Sequence[float],
+                  collisions: Sequence[int], waited: Sequence[float]) -> RewardBreakdown:
+    """Rewards of every robot for one transition of event mode (env/event_env.py): r_idle for the
+    time it waited in it (idle, or at a task for its predecessors), r_col for its collision events,
+    and where its attempt at a task ended (finished, failed or wasted) r_logic and r_nav of that
+    attempt (in order always: robots wait for predecessors). A None decision earns its waiting."""
+    logic: List[float] = []
+    nav: List[float] = []
+    collision: List[float] = []
+    idle: List[float] = []
+    total: List[float] = []
+    w_logic, w_time, w_col, w_idle = config.w_logic, config.w_time, config.w_col, config.w_idle
+    for i, attempt in enumerate(ended):
+        r_logic = logic_reward(config, True, True, finished[i]) if attempt else 0.0
+        r_nav = nav_reward(config, True, nav_time[i]) if attempt else 0.0
+        r_col = collision_reward(config, collisions[i])
+        r_idle = idle_reward(config, waited[i])
+        logic.append(r_logic)
+        nav.append(r_nav)
+        collision.append(r_col)
+        idle.append(r_idle)
+        total.append(w_logic * r_logic + w_time * r_nav + w_col * r_col + w_idle * r_idle)
+    return RewardBreakdown(logic, nav, collision, idle, total)
