@@ -24,20 +24,26 @@ bool LockstepGate::ackReceived(int robot, uint64_t tick, uint64_t cmd_vel_count,
   return true;
 }
 
-void GoalEndWatch::start(std::vector<int> robots, uint64_t start_tick, uint64_t align) {
+void GoalEndWatch::start(std::vector<int> robots, uint64_t start_tick, uint64_t align, bool first) {
   robots_ = std::move(robots);
   start_tick_ = start_tick;
   align_ = std::max<uint64_t>(align, 1);
+  first_ = first;
 }
 
 uint64_t GoalEndWatch::pauseTick() const {
   if (robots_.empty()) return 0;
-  uint64_t last = 0;
+  uint64_t chosen = 0;
   for (int robot : robots_) {
-    if (end_tick_[robot] <= start_tick_) return 0;
-    last = std::max(last, end_tick_[robot]);
+    const uint64_t end = end_tick_[robot];
+    if (end <= start_tick_) {
+      if (first_) continue;
+      return 0;
+    }
+    chosen = first_ ? (chosen == 0 ? end : std::min(chosen, end)) : std::max(chosen, end);
   }
-  return (last + align_ - 1) / align_ * align_;
+  if (chosen == 0) return 0;
+  return (chosen + align_ - 1) / align_ * align_;
 }
 
 bool LockstepGate::answered(uint64_t tick) const { return missing(tick).empty(); }

@@ -65,7 +65,7 @@ bool SimulatorRos::onRunUntil(marl_mrta::RunSim::Request& req, marl_mrta::RunSim
     }
     watched.push_back(robot);
   }
-  goal_ends_->start(std::move(watched), world_->tick(), req.align_ticks);
+  goal_ends_->start(std::move(watched), world_->tick(), req.align_ticks, req.until_first_goal_end);
   run_until_tick_ = req.until_tick;
   setPaused(req.until_tick <= world_->tick());
   res.tick = world_->tick();

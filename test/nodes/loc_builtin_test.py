@@ -137,7 +137,7 @@ class LocBuiltinTest(unittest.TestCase):
         self.robot.send(*goal)
         while self.robot.client.get_state() == GoalStatus.PENDING and time.time() < deadline:
             time.sleep(0.001)
-        self.run_until(start.tick + MAX_GOAL_TICKS, ["tb3_0"], ALIGN_TICKS)
+        self.run_until(until_tick=start.tick + MAX_GOAL_TICKS, until_goals_end_of=["tb3_0"], align_ticks=ALIGN_TICKS)
         state, text, t1 = self.robot.wait()
         end_tick = int(math.ceil(round(t1 * PHYSICS_RATE) / ALIGN_TICKS)) * ALIGN_TICKS
         while self.step(0).tick < end_tick and time.time() < deadline:

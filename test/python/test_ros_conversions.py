@@ -63,3 +63,29 @@ def test_a_mask_given_as_a_list_of_ints_is_read_too():
     msg = to_message(env.reset(seed=0))
     msg.action_mask = list(msg.action_mask)
     assert from_message(msg).action_mask.all()
+
+
+def test_an_event_mode_episode_survives_serialisation():
+    # Which robots decide, what the others are busy with, and the record's service starts and mode.
+    from marl_mrta.baselines.random_policy import RandomPolicy
+    env = make_env(LAB_2R, mask="none", seed=0, decision_mode="event")
+    policy = RandomPolicy(env.n_agents, env.n_tasks, seed=3)
+    output = env.reset(seed=0)
+    policy.begin_episode(output)
+    steps = 0
+    while True:
+        back = from_message(over_the_wire(to_message(output)))
+        assert_same(output, back)
+        assert back.info == output.info
+        np.testing.assert_array_equal(back.deciding, output.deciding)
+        if output.done or output.truncated:
+            break
+        output = env.step(policy.act(output))
+        steps += 1
+    assert steps > 1
+    record, original = back.info.episode, output.info.episode
+    assert record.decision_mode == "event" and record.to_dict() == original.to_dict()
+    assert any(e.service_start is not None for e in record.entries)
+    # Synchronous mode keeps its wire form: no deciding, no busy tasks.
+    sync = from_message(over_the_wire(to_message(make_env(LAB_2R, seed=0).reset(seed=0))))
+    assert sync.deciding is None and sync.info.robot_tasks == []

@@ -20,7 +20,7 @@ def test_roslaunch_remappings_are_ignored():
 
 def test_embedded_default_output_name_is_unchanged(tmp_path, monkeypatch):
     import marl_mrta.apps.evaluate as cli
-    monkeypatch.setattr(cli, "package_root", lambda: tmp_path)
-    assert main(["--method", "exact", "--episodes", "1", "--quiet",
+    monkeypatch.setattr(cli, "runs_dir", lambda: tmp_path / "results" / "runs")   # a user's runs: results/runs/
+    assert main(["--method", "exact", "--episodes", "1", "--quiet", "--no-both-references",
                  "--scenario", str(ROOT / "scenarios" / "lab_2r.xml")]) == 0
-    assert (tmp_path / "results" / "evaluate_lab_2r_exact.json").is_file()
+    assert (tmp_path / "results" / "runs" / "evaluate_lab_2r_exact.json").is_file()

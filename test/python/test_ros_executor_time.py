@@ -59,3 +59,22 @@ def test_a_success_after_driving_or_a_failure_is_taken_as_it_is():
     executor = fake_executor([late, aborted], [(0.2, 1.0, 0.0), (0.2, 1.0, 0.0)])
     assert StaleSuccessGuard(step_start=10.0).all_ended(executor, [0, 0], [0, 1])
     assert executor.bases[0].sent == [] and executor.bases[1].sent == []
+
+
+# Event mode: each leg has its own goal timeout, so a wait for the next event ends at the earliest
+# leg deadline when that comes before `until` (ros/event_legs.py, both ROS executors).
+from marl_mrta.ros.event_legs import LegBook  # noqa: E402
+
+
+def test_a_wait_for_the_next_event_ends_at_the_earliest_leg_deadline():
+    book = LegBook(3, goal_timeout=60.0)
+    assert book.running() == [] and book.stop_time(120.0) == 120.0
+    book.start(0, task=4, start=10.0, sent=1010.0, watch_tick=20200)
+    book.start(2, task=1, start=35.5, sent=1035.5)
+    assert book.running() == [0, 2]
+    assert book.stop_time(120.0) == 70.0 and book.stop_time(50.0) == 50.0
+    assert book.overdue(69.9) == [] and book.overdue(70.0) == [0]
+    book.end(0)
+    assert book.stop_time(120.0) == 95.5 and book.overdue(100.0) == [2]
+    book.clear()
+    assert book.running() == []

@@ -36,6 +36,12 @@ def test_parameters_override_defaults_and_the_output_parameter_is_ignored():
     assert settings.executor.simulator_lost_after == 1.0
 
 
+def test_the_decision_mode_is_the_task_configs_unless_given():
+    assert read_manager_settings({"scenario": "s.xml"}, NODE).decision_mode is None
+    assert read_manager_settings({"scenario": "s.xml", "decision_mode": ""}, NODE).decision_mode is None
+    assert read_manager_settings({"scenario": "s.xml", "decision_mode": "event"}, NODE).decision_mode == "event"
+
+
 @pytest.mark.parametrize("params, message", [
     ({}, NODE + "/scenario: missing: give the scenario XML file"),
     ({"scenario": ""}, NODE + "/scenario: missing"),
@@ -48,6 +54,7 @@ def test_parameters_override_defaults_and_the_output_parameter_is_ignored():
     ({"scenario": "s.xml", "robot_prefix": "/arena_1/"}, NODE + "/robot_prefix: '/arena_1/' must be empty or"),
     ({"scenario": "s.xml", "map_frame": ""}, NODE + "/map_frame: expected a non-empty string, got ''"),
     ({"scenario": "s.xml", "goal_timeout": 5.0}, NODE + "/goal_timeout: unknown parameter"),
+    ({"scenario": "s.xml", "decision_mode": "async"}, NODE + "/decision_mode: 'async' is not one of synchronous, event"),
 ])
 def test_bad_parameters_give_one_line(params, message):
     with pytest.raises(ConfigError) as error:

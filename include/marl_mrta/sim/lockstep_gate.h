@@ -38,14 +38,15 @@ class LockstepGate {
 
 // ~run_until's early stop when goals end: the tick to pause on once every watched robot's
 // controller has reported a goal ended on a tick after the watch started (the first multiple of
-// `align` at or after the last such tick).
+// `align` at or after the last such tick), or with `first` once any of them has (the first
+// multiple of `align` at or after the earliest such tick: event mode's next decision).
 class GoalEndWatch {
  public:
   explicit GoalEndWatch(std::size_t robots) : end_tick_(robots, 0) {}
 
   // From every ack: the tick on which the robot's controller last ended a goal (0: none).
   void goalEnded(int robot, uint64_t tick) { end_tick_[robot] = std::max(end_tick_[robot], tick); }
-  void start(std::vector<int> robots, uint64_t start_tick, uint64_t align);
+  void start(std::vector<int> robots, uint64_t start_tick, uint64_t align, bool first = false);
   void clear() { robots_.clear(); }
   bool active() const { return !robots_.empty(); }
   // 0 while a watched robot has not ended a goal since the start (or nothing is watched).
@@ -55,6 +56,7 @@ class GoalEndWatch {
   std::vector<uint64_t> end_tick_;
   std::vector<int> robots_;
   uint64_t start_tick_ = 0, align_ = 1;
+  bool first_ = false;
 };
 
 // Real-time pacing: with rtf > 0, the step to tick T+1 is due rtf times faster than sim time

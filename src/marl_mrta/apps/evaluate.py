@@ -71,9 +71,9 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> argparse.Namespace:
     parser.add_argument("--decision-mode", default=None, metavar="MODE",
                         help="synchronous (the paper's steps) or event (a robot decides when it comes free) "
                              "(default: config/task.yaml; --executor ros: the task manager's)")
-    parser.add_argument("--both-references", action=argparse.BooleanOptionalAction, default=True,
-                        help="also plan the other decision mode's reference and print the two side by side "
-                             "(default: yes)")
+    parser.add_argument("--no-both-references", dest="both_references", action="store_false",
+                        help="do not also plan the other decision mode's reference (by default the two are "
+                             "printed side by side and kept in the result file)")
     parser.add_argument("--mask", default=None, choices=MASK_MODES, help="action masks (default: for --method policy the mask the actor was trained with, "
                         "else config/task.yaml)")
     parser.add_argument("--hold-successors", action="store_true",
@@ -156,7 +156,7 @@ def lookahead_for(args: argparse.Namespace, env, settings, margin: float) -> Loo
     actor = LearnedPolicy.from_file(args.policy, env.n_agents, env.obs_dim, env.n_actions, seed=args.seed,
                                     scenario=env.scenario).actor
     try:
-        return Lookahead(actor, settings.lookahead, env.settings.hold_successors, margin)
+        return Lookahead(actor, settings.lookahead, env.settings.hold_successors, margin, env.settings.decision_mode)
     except ValueError as error:
         raise PolicyLoadError(f"--method lookahead: {error}") from None
 

@@ -56,6 +56,12 @@ class EmbeddedExecutor:
         if len(nodes) != self.n_robots or not all(0 <= int(node) < self.table.n_nodes for node in nodes):
             raise ValueError(f"nodes {list(nodes)}: one node of the table per robot ({self.n_robots})")
         self._nodes = [int(node) for node in nodes]
+        self._legs = [None] * self.n_robots
+
+    def set_clock(self, now: float) -> None:
+        """The clock of an episode resumed midway (event mode): legs dispatched from now on end
+        their leg time after it."""
+        self.clock = float(now)
 
     def leg_time(self, start: int, goal: int) -> float:
         """Seconds to drive from node `start` to node `goal` under the noise profile."""

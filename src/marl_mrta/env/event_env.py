@@ -23,7 +23,7 @@ claims of a policy that decides in turn) and masked for the other robots.
 from __future__ import annotations
 
 import math
-from typing import List, Optional, Sequence
+from typing import Dict, List, Optional, Sequence
 
 import numpy as np
 
@@ -89,6 +89,28 @@ class EventTaskEnvironment:
         zeros = np.zeros(n, dtype=np.float32)
         return self._output(zeros, {name: zeros.copy() for name in REWARD_COMPONENTS}, False, False,
                             StepInfo(step=0, elapsed=0.0, finished=[False] * m, robot_tasks=[None] * n))
+
+    def resume(self, nodes: Sequence[int], finished: Sequence[bool], elapsed: float, step_index: int,
+               at_task: Optional[Dict[int, int]] = None) -> StepOutput:
+        """An episode taken up midway, as a robot observes it (evaluation/lookahead.py): the robots
+        standing on `nodes` of the executor's table, `finished` tasks done, `elapsed` s and
+        `step_index` instants gone, and the robots of `at_task` at those tasks (busy robots, shown
+        where they come free), serving or holding from now; the others decide. Embedded executor."""
+        if len(finished) != self.n_tasks:
+            raise ValueError(f"finished: {len(finished)} flags, the scenario has {self.n_tasks} tasks")
+        self.reset()
+        self.executor.place(nodes)
+        self.executor.set_clock(elapsed)
+        self.elapsed, self.step_index = float(elapsed), int(step_index)
+        self.rules.resume(self.elapsed, [bool(f) for f in finished], dict(at_task or {}))
+        for task, done in enumerate(finished):
+            if done:
+                self.record.task_logic_correct[task] = True
+        n = self.n_agents
+        zeros = np.zeros(n, dtype=np.float32)
+        return self._output(zeros, {name: zeros.copy() for name in REWARD_COMPONENTS}, False, False,
+                            StepInfo(step=self.step_index, elapsed=self.elapsed, finished=list(self.rules.finished),
+                                     robot_tasks=[r.task for r in self.rules.robots]))
 
     def step(self, actions: Sequence[int]) -> StepOutput:
         if self.record is None or self.over:

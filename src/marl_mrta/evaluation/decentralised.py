@@ -14,7 +14,7 @@ import numpy as np
 import torch
 
 from marl_mrta.env.api import StepOutput
-from marl_mrta.mappo.claims import ClaimRules
+from marl_mrta.mappo.claims import ClaimRules, busy_claims
 
 #: Topics relative to each robot's namespace.
 OBSERVATION_TOPIC = "task_observation"
@@ -117,30 +117,39 @@ class DecentralisedPolicy:
         self.step = 0
 
     def act(self, output: StepOutput) -> List[int]:
+        # Event mode: only the robots that decide now are asked; the others drive on (None).
+        asked = list(range(self.n_agents)) if output.deciding is None else \
+            [i for i in range(self.n_agents) if output.deciding[i]]
         if self.claim_rules is not None and self.claim_rules.sequential:
-            return self._act_in_turn(output)
-        rows = [ObservationRow(episode=self.episode, step=self.step, episode_start=self.step == 0,
-                               obs=np.asarray(output.obs[i], dtype=np.float32),
-                               action_mask=np.asarray(output.action_mask[i], dtype=np.uint8),
-                               agent_index=i) for i in range(self.n_agents)]
+            return self._act_in_turn(output, asked)
+        rows = {i: ObservationRow(episode=self.episode, step=self.step, episode_start=self.step == 0,
+                                  obs=np.asarray(output.obs[i], dtype=np.float32),
+                                  action_mask=np.asarray(output.action_mask[i], dtype=np.uint8),
+                                  agent_index=i) for i in asked}
         self.board.expect(self.episode, self.step)
 
         def send_all() -> None:
-            for i, row in enumerate(rows):
+            for i, row in rows.items():
                 self.send(i, row)
 
         send_all()
         # A lost message is re-sent; the actors answer a repeated step without re-deciding.
-        actions = self.board.wait(self.timeout, self.resend_period, on_poll=send_all, stop=self.stop)
+        answers = self.board.wait(self.timeout, self.resend_period, on_poll=send_all, stop=self.stop, robots=asked)
         self.step += 1
-        return [int(a) for a in actions]
+        none = output.action_mask.shape[-1] - 1
+        return [int(answers[i]) if i in rows else none for i in range(self.n_agents)]
 
-    def _act_in_turn(self, output: StepOutput) -> List[int]:
-        """A robot is asked once the robots before it (turns) have answered, with the tasks they claimed."""
+    def _act_in_turn(self, output: StepOutput, asked: Sequence[int]) -> List[int]:
+        """A robot is asked once the robots before it (turns) have answered, with the tasks they
+        claimed (event mode: the tasks of busy robots claimed from the start)."""
         self.board.expect(self.episode, self.step)
+        none = output.action_mask.shape[-1] - 1
+        claimed = None if output.deciding is None else busy_claims(output.info.robot_tasks, output.deciding, none)
 
         def ask(turn: torch.Tensor, claimed: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
             robot = int(turn)
+            if robot not in asked:
+                return torch.tensor(none, dtype=torch.long)
             row = ObservationRow(episode=self.episode, step=self.step, episode_start=self.step == 0,
                                  obs=np.asarray(output.obs[robot], dtype=np.float32),
                                  action_mask=mask.numpy().astype(np.uint8), agent_index=robot,
@@ -152,6 +161,7 @@ class DecentralisedPolicy:
 
         actions = self.claim_rules.decide_in_turn(torch.as_tensor(np.asarray(output.action_mask, dtype=bool)), ask,
                                                   None if self.turns is None
-                                                  else self.turns(np.asarray(output.obs, dtype=np.float32)))
+                                                  else self.turns(np.asarray(output.obs, dtype=np.float32)),
+                                                  claimed)
         self.step += 1
         return [int(a) for a in actions]

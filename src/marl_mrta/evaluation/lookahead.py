@@ -42,7 +42,7 @@ from __future__ import annotations
 import math
 import threading
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
@@ -54,6 +54,7 @@ from marl_mrta.baselines.settings import LookaheadBudget
 from marl_mrta.env.factory import make_env
 from marl_mrta.evaluation.loop import MAX_STEPS
 from marl_mrta.evaluation.rollout import RolloutError, other_actions, rollout_plan
+from marl_mrta.mappo.claims import busy_claims
 from marl_mrta.mappo.policy import SetActorPolicy
 
 
@@ -64,6 +65,7 @@ class ObservedState:
     finished: List[bool]        # per task
     elapsed: float              # s of episode time
     step_index: int
+    at_task: Tuple[Tuple[int, int], ...] = ()   # event mode: (robot, task) of busy robots, shown at their task
 
 
 @dataclass(frozen=True)
@@ -99,7 +101,7 @@ class Lookahead:
     (SetActorPolicy.for_scenario). Robots that share one (in one process) share its searches."""
 
     def __init__(self, policy: SetActorPolicy, budget: LookaheadBudget, hold_successors: Optional[bool] = None,
-                 precedence_margin: float = 0.0):
+                 precedence_margin: float = 0.0, decision_mode: str = "synchronous"):
         if not isinstance(policy, SetActorPolicy) or policy.view is None or not policy.sequential:
             raise ValueError(f"{getattr(policy, 'source', policy)}: lookahead needs a set actor that decides in "
                              f"turn, bound to the scenario (the generalist, or a file fine-tuned from it)")
@@ -109,7 +111,12 @@ class Lookahead:
         # With a margin, an episode whose successor is reached within it of its predecessor's
         # finish is out of order on the model, so no search keeps it (nor the opening plan).
         self.env = make_env(scenario, "embedded", profile="ideal", mask=policy.action_mask,
-                            hold_successors=hold_successors, precedence_margin=precedence_margin)
+                            hold_successors=hold_successors, precedence_margin=precedence_margin,
+                            decision_mode=decision_mode)
+        self.event = decision_mode == "event"
+        if self.event:   # the opening's rollout plan is of joint steps; in event mode the steps' searches alone
+            budget = replace(budget, opening=None)
+            self.budget = budget
         self.actors = [policy.turned(k) for k in range(min(budget.orientations, policy.orientations))]
         self.none = scenario.n_tasks
         self._searched: Dict[tuple, _StepPlan] = {}
@@ -130,14 +137,22 @@ class Lookahead:
                 + ("" if budget.opening is None else ", opening with the actor's rollout plan")
                 + (f", keeping a precedence margin of {margin:g} s" if margin else ""))
 
-    def state_of(self, row: np.ndarray, agent_index: int) -> ObservedState:
-        """The state robot `agent_index` observes in its own row (env/observation.py's layout)."""
+    def state_of(self, row: np.ndarray, agent_index: int, claimed: Optional[np.ndarray] = None) -> ObservedState:
+        """The state robot `agent_index` observes in its own row (env/observation.py's layout). In
+        event mode, a robot whose claimed task's goal is where it is shown is busy with that task
+        (busy robots are shown where they come free; one that decided before this robot in this
+        instant is shown where it stands)."""
         flat, encoder = self.view.flat, self.view.encoder
         rows = np.asarray(row, dtype=np.float64).reshape(1, -1)
-        nodes = encoder.nearest_nodes(encoder.robot_positions(rows, [agent_index]))[0]
+        nodes = [int(n) for n in encoder.nearest_nodes(encoder.robot_positions(rows, [agent_index]))[0]]
         finished = rows[0, flat.at_finished:flat.at_finished + flat.n_tasks] > 0.5
-        return ObservedState([int(n) for n in nodes], [bool(f) for f in finished],
-                             float(rows[0, 1]) * flat.timeout, int(round(float(rows[0, 0]) * flat.step_scale)))
+        at_task = ()
+        if self.event and claimed is not None:
+            n_robots = len(nodes)
+            at_task = tuple((int(k) - 1, task) for task, k in enumerate(np.asarray(claimed).reshape(-1))
+                            if k > 0 and nodes[int(k) - 1] == n_robots + task)
+        return ObservedState(nodes, [bool(f) for f in finished], float(rows[0, 1]) * flat.timeout,
+                             int(round(float(rows[0, 0]) * flat.step_scale)), at_task)
 
     def choose(self, agent_index: int, row: np.ndarray, logits: torch.Tensor, mask: torch.Tensor,
                claimed: Optional[np.ndarray]) -> LookaheadChoice:
@@ -147,9 +162,10 @@ class Lookahead:
         own = int(torch.argmax(torch.where(mask, logits, torch.full_like(logits, -math.inf))))
         if self.budget.alternatives == 0 and len(self.actors) == 1 and self.budget.opening is None:
             return LookaheadChoice(own, own, math.inf, 0, 0)
-        state = self.state_of(row, agent_index)
+        state = self.state_of(row, agent_index, claimed)
         claimers = np.zeros(self.none, dtype=np.int64) if claimed is None else np.asarray(claimed).reshape(-1)
-        took = {int(k) - 1: task for task, k in enumerate(claimers) if k > 0}
+        busy = {robot for robot, _ in state.at_task}
+        took = {int(k) - 1: task for task, k in enumerate(claimers) if k > 0 and int(k) - 1 not in busy}
         self._play_outs = 0
         plan = self._search(state, {})
         before = plan.order[:plan.order.index(agent_index)]
@@ -167,7 +183,7 @@ class Lookahead:
     def _search(self, state: ObservedState, fixed: Dict[int, int]) -> _StepPlan:
         """The step's joint action by rollout from `state`, the robots in `fixed` holding their actions."""
         key = (tuple(state.nodes), tuple(state.finished), round(state.elapsed, 3), state.step_index,
-               tuple(sorted(fixed.items())))
+               state.at_task, tuple(sorted(fixed.items())))
         if key not in self._searched:
             if len(self._searched) > 64:   # one episode's steps at a time
                 self._searched.clear()
@@ -272,7 +288,10 @@ class Lookahead:
         self._play_outs += 1
         self.play_outs += 1
         env, flat = self.env, self.view.flat
-        output = env.resume(state.nodes, state.finished, state.elapsed, state.step_index)
+        if self.event:
+            output = env.resume(state.nodes, state.finished, state.elapsed, state.step_index, dict(state.at_task))
+        else:
+            output = env.resume(state.nodes, state.finished, state.elapsed, state.step_index)
         turns: List[Tuple[int, torch.Tensor, torch.Tensor, torch.Tensor]] = []
 
         def first_step(turn: int, robot: int, logits: torch.Tensor, mask: torch.Tensor,
@@ -288,8 +307,11 @@ class Lookahead:
                 obs = output.obs.copy()
                 obs[:, flat.at_durations:flat.at_durations + 2] = 0.0
                 obs[:, flat.at_reached] = 0.0
+                claims = None if output.deciding is None else busy_claims(output.info.robot_tasks, output.deciding,
+                                                                          self.none)
                 chosen, _ = actor.act_team(obs, output.action_mask, actor.initial_hidden(env.n_agents),
-                                           pick=first_step if index == 0 else None)
+                                           pick=first_step if index == 0 else None, deciding=output.deciding,
+                                           claimed=claims)
                 actions = [int(a) for a in np.asarray(chosen).reshape(-1)]
             joints.append(actions)
             output = env.step(actions)

@@ -35,11 +35,12 @@ from typing import Dict, List, Optional, Sequence, Tuple
 import numpy as np
 import torch
 
-from marl_mrta.baselines.plan import NominalRun, Plan, SchedulingInstance, plan_from_run
+from marl_mrta.baselines.plan import NominalRun, Plan, SchedulingInstance, decode_task_lists, plan_from_run
 from marl_mrta.baselines.settings import RolloutBudget
 from marl_mrta.env.api import StepOutput, TaskAllocationEnv
 from marl_mrta.env.factory import make_env
 from marl_mrta.evaluation.loop import MAX_STEPS
+from marl_mrta.mappo.claims import busy_claims
 from marl_mrta.mappo.policy import ActorPolicy
 from marl_mrta.model.scenario import Scenario
 
@@ -96,15 +97,22 @@ class RolloutPlanner:
 
     def play(self, deviations: Sequence[Deviation], watch: Optional[int] = None) -> _PlayOut:
         """The episode with `deviations` at its first steps and the actor's choices after them;
-        with `watch`, also the turns of that step."""
+        with `watch`, also the turns of that step. In event mode a step is a decision instant (its
+        turns those of the robots that decide at it) and the plan is the episode's routes."""
         output: StepOutput = self.env.reset(seed=self.seed)
         hidden = self.actor.initial_hidden(self.env.n_agents)
+        event = self.instance.decision_mode == "event"
         run = NominalRun(self.instance)                 # the robots' nodes and finished tasks, step by step
         turns: Optional[List[_Turn]] = None
         finished: List[bool] = []
         for step in range(MAX_STEPS):
             deviation = deviations[step] if step < len(deviations) else {}
             seen: Optional[List[_Turn]] = [] if step == watch else None
+            if event:   # a robot stands where it last finished a task (its start before)
+                run.finished = list(output.info.finished)
+                for robot, task in enumerate(output.info.finished_task or []):
+                    if task is not None:
+                        run.positions[robot] = self.instance.node(task)
 
             def pick(turn: int, robot: int, logits: torch.Tensor, mask: torch.Tensor, claimed: torch.Tensor,
                      deviation=deviation, seen=seen) -> Optional[int]:
@@ -114,16 +122,23 @@ class RolloutPlanner:
 
             if seen is not None:
                 finished = list(run.finished)
-            actions, hidden = self.actor.act_team(output.obs, output.action_mask, hidden, pick=pick)
+            claimed = None if output.deciding is None else busy_claims(output.info.robot_tasks, output.deciding,
+                                                                        self.none)
+            actions, hidden = self.actor.act_team(output.obs, output.action_mask, hidden, pick=pick,
+                                                  deciding=output.deciding, claimed=claimed)
             turns = turns if seen is None else seen
             joint = [int(a) for a in np.asarray(actions).reshape(-1)]
-            run.apply([None if a == self.none else a for a in joint])
+            if not event:
+                run.apply([None if a == self.none else a for a in joint])
             output = self.env.step(joint)
             if output.done or output.truncated:
                 # Scored as the plan it becomes: in the instance's nominal run, whose precedence
                 # margin (evaluate --precedence-margin) the environment's rules do not know.
                 record = output.info.episode
                 done = record.complete and record.logic_consistent
+                if event:   # the routes the episode took, carried out on events
+                    run = decode_task_lists(self.instance, record.robot_task_lists())
+                    done = done and run.complete
                 return _PlayOut(run.elapsed if done else math.inf, run.violations if done else math.inf,
                                 run, turns, finished)
         raise RuntimeError(f"the rollout's episode did not end within {MAX_STEPS} steps")
@@ -192,7 +207,8 @@ def rollout_plan(actor: ActorPolicy, scenario: Scenario, instance: SchedulingIns
     """The rollout's episode on an embedded, ideal environment of `scenario` under the actor's
     `mask`, as a plan of `instance` (the scenario's nominal numbers)."""
     # The play-outs run under the instance's rules, so that the environment and the nominal run agree.
-    env = make_env(scenario, "embedded", profile="ideal", mask=mask, seed=seed, hold_successors=instance.hold_successors)
+    env = make_env(scenario, "embedded", profile="ideal", mask=mask, seed=seed, hold_successors=instance.hold_successors,
+                   decision_mode=instance.decision_mode)
     on_scenario = actor.for_scenario(scenario)
     best: Optional[_PlayOut] = None
     chosen, greedy, play_outs, budget_reached = 0, math.inf, 0, False

@@ -182,6 +182,24 @@ class EventRules:
         if outcome.ended or outcome.finished or self.due:
             self.last_event = now
 
+    def resume(self, now: float, finished: Sequence[bool], at_task: Dict[int, int]) -> None:
+        """An episode taken up midway: `finished` tasks done (at unknown times, so `now`), and the
+        robots of `at_task` standing at those tasks since `now` (serving them, or holding for their
+        predecessors); every other robot idle and due."""
+        self.reset(now)
+        for task, done in enumerate(finished):
+            if done:
+                self.finished[task], self.finish_time[task] = True, now
+        for robot, task in at_task.items():
+            state = self.robots[robot]
+            state.task, state.leg_start = task, now
+            self.attempts[robot] = Attempt(robot, task, now, arrived_at=now)
+            self.due.discard(robot)
+            if all(self.finished[p] for p in self.predecessors[task]):
+                self._serve(robot, now)
+            else:
+                state.phase, state.since = HOLDING, now
+
     # ------------------------------------------------------------------ helpers
 
     def _serve(self, robot: int, start: float) -> None:

@@ -35,7 +35,9 @@ def _entry_to_message(entry: ScheduleEntry) -> ScheduleEntryMsg:
         reach=0.0 if entry.reach is None else entry.reach, end=entry.end, finished=entry.finished,
         order=NONE_INDEX if entry.order is None else entry.order, logic_correct=entry.logic_correct,
         has_service_end=entry.service_end is not None,
-        service_end=0.0 if entry.service_end is None else entry.service_end)
+        service_end=0.0 if entry.service_end is None else entry.service_end,
+        has_service_start=entry.service_start is not None,
+        service_start=0.0 if entry.service_start is None else entry.service_start)
 
 
 def _entry_from_message(msg: ScheduleEntryMsg) -> ScheduleEntry:
@@ -43,7 +45,8 @@ def _entry_from_message(msg: ScheduleEntryMsg) -> ScheduleEntry:
                          reach=msg.reach if msg.reached else None, end=msg.end, finished=bool(msg.finished),
                          order=None if msg.order == NONE_INDEX else int(msg.order),
                          logic_correct=bool(msg.logic_correct),
-                         service_end=msg.service_end if msg.has_service_end else None)
+                         service_end=msg.service_end if msg.has_service_end else None,
+                         service_start=msg.service_start if msg.has_service_start else None)
 
 
 def record_to_message(record: EpisodeRecord) -> EpisodeRecordMsg:
@@ -57,7 +60,8 @@ def record_to_message(record: EpisodeRecord) -> EpisodeRecordMsg:
         finish_time=[0.0 if t is None else t for t in record.finish_time],
         finished_by=_indices(record.finished_by),
         task_logic_correct=[bool(c) for c in record.task_logic_correct],
-        nav_time=list(record.nav_time), idle_time=list(record.idle_time), collisions=list(record.collisions))
+        nav_time=list(record.nav_time), idle_time=list(record.idle_time), collisions=list(record.collisions),
+        decision_mode=record.decision_mode)
 
 
 def record_from_message(msg: EpisodeRecordMsg) -> EpisodeRecord:
@@ -73,7 +77,8 @@ def record_from_message(msg: EpisodeRecordMsg) -> EpisodeRecord:
         finish_time=[t if d else None for t, d in zip(msg.finish_time, done)],
         finished_by=[int(r) if d else None for r, d in zip(msg.finished_by, done)],
         task_logic_correct=[bool(c) if d else None for c, d in zip(msg.task_logic_correct, done)],
-        nav_time=list(msg.nav_time), idle_time=list(msg.idle_time), collisions=[int(c) for c in msg.collisions])
+        nav_time=list(msg.nav_time), idle_time=list(msg.idle_time), collisions=[int(c) for c in msg.collisions],
+        decision_mode=msg.decision_mode or "synchronous")
 
 
 def info_to_message(info: StepInfo) -> StepInfoMsg:
@@ -83,7 +88,8 @@ def info_to_message(info: StepInfo) -> StepInfoMsg:
         collisions=[int(c) for c in info.collisions], reached=[bool(r) for r in info.reached],
         finished_task=_indices(info.finished_task), correct_order=[bool(c) for c in info.correct_order],
         failure=list(info.failure), finish_order=_indices(info.finish_order), held_time=list(info.held_time),
-        has_episode=info.episode is not None, abort_reason=info.abort_reason)
+        has_episode=info.episode is not None, abort_reason=info.abort_reason,
+        robot_tasks=_indices(info.robot_tasks), attempt_ended=[bool(e) for e in info.attempt_ended])
     if info.episode is not None:
         msg.episode = record_to_message(info.episode)
     return msg
@@ -96,7 +102,8 @@ def info_from_message(msg: StepInfoMsg) -> StepInfo:
         collisions=[int(c) for c in msg.collisions], reached=[bool(r) for r in msg.reached],
         finished_task=_optional_indices(msg.finished_task), correct_order=[bool(c) for c in msg.correct_order],
         failure=list(msg.failure), finish_order=_optional_indices(msg.finish_order), held_time=list(msg.held_time),
-        episode=record_from_message(msg.episode) if msg.has_episode else None, abort_reason=msg.abort_reason)
+        episode=record_from_message(msg.episode) if msg.has_episode else None, abort_reason=msg.abort_reason,
+        robot_tasks=_optional_indices(msg.robot_tasks), attempt_ended=[bool(e) for e in msg.attempt_ended])
 
 
 def to_message(output: StepOutput) -> TaskEnvOutput:
@@ -110,6 +117,8 @@ def to_message(output: StepOutput) -> TaskEnvOutput:
     msg.done, msg.truncated = bool(output.done), bool(output.truncated)
     msg.action_mask = output.action_mask.astype(np.uint8).ravel().tobytes()
     msg.info = info_to_message(output.info)
+    if output.deciding is not None:
+        msg.deciding = [bool(flag) for flag in output.deciding]
     return msg
 
 
@@ -123,4 +132,5 @@ def from_message(msg: TaskEnvOutput) -> StepOutput:
         rewards=np.asarray(msg.rewards, dtype=np.float32),
         reward_components={name: np.asarray(getattr(msg, "reward_" + name), dtype=np.float32)
                            for name in REWARD_COMPONENTS},
-        done=bool(msg.done), truncated=bool(msg.truncated), action_mask=mask, info=info_from_message(msg.info))
+        done=bool(msg.done), truncated=bool(msg.truncated), action_mask=mask, info=info_from_message(msg.info),
+        deciding=np.asarray(msg.deciding, dtype=bool) if len(msg.deciding) else None)

@@ -2,7 +2,9 @@
 
 The learner, the baselines and the evaluation talk to it exactly as to an embedded
 environment: reset(seed) and step(actions) return StepOutputs (conversions.from_message),
-episode records included. The manager's `~env` parameter gives the sizes and settings.
+episode records included, and in event mode which robots decide (StepOutput.deciding) and the
+tasks the others are busy with (StepInfo.robot_tasks). The manager's `~env` parameter gives the
+sizes and settings, its decision mode included (settings.decision_mode).
 """
 from __future__ import annotations
 
@@ -52,7 +54,8 @@ class RosTaskEnvClient:
         self.scenario: Scenario = load_scenario(env["scenario"])
         self.settings = TaskSettings(mask=env["mask"], min_step=float(env["min_step"]),
                                      goal_timeout=float(env["goal_timeout"]),
-                                     hold_successors=bool(env.get("hold_successors", False)))
+                                     hold_successors=bool(env.get("hold_successors", False)),
+                                     decision_mode=str(env.get("decision_mode", "synchronous")))
         self.n_agents = int(env["n_agents"])
         self.n_tasks = self.scenario.n_tasks
         self.n_actions = int(env["n_actions"])

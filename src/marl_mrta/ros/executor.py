@@ -1,7 +1,8 @@
 """The ROS executor: a decision step's goals driven through each robot's move_base.
 
-Implements env.executor.Executor, so the decision process (env/task_env.py) and every task
-rule stay the one ROS-free implementation; this class only moves robots and reports what
+Implements env.executor.Executor, and in event mode its event interface (ros/sim_events.py), so
+the decision process (env/task_env.py, env/event_env.py) and every task rule stay the one ROS-free
+implementation; this class only moves robots and reports what
 happened: arrival and failure from the move_base results (their sim-time stamps), collisions
 from /simulator/collisions, poses from ground truth.
 
@@ -37,20 +38,13 @@ from marl_mrta.ros.localization_link import LocalizationLink
 from marl_mrta.ros.move_base_link import MoveBaseLink, await_accepted, cancel_running, send_goals
 from marl_mrta.ros.sim_clock import SimClock, SimulatorLost, call_bounded, wait_wall
 from marl_mrta.ros.sim_link import SimulatorLink
-from marl_mrta.ros.ticks import first_tick_at
+from marl_mrta.ros.sim_events import SimEventMode
+from marl_mrta.ros.ticks import first_tick_at, sim_elapsed as _elapsed
 
 
 #: s of sim time between the requests for an update without motion while amcl has not answered a
 #: reset (about a scan period of TurtleBot3's LDS-01).
 NOMOTION_PERIOD = 0.2
-
-
-def _elapsed(since: float, until: float) -> float:
-    """Sim time from `since` to `until`, in whole nanoseconds as ros::Time counts it: the plain
-    difference of two absolute times in seconds carries their rounding, which depends on when
-    the run started (a 46.7 s episode came out as 46.700000000000045 s in a launch that started
-    later)."""
-    return round((until - since) * 1e9) / 1e9
 
 
 class StaleSuccessGuard:
@@ -81,8 +75,9 @@ class StaleSuccessGuard:
         return all(executor.bases[i].result is not None for i in pending)
 
 
-class RosExecutor:
-    """Executor over the simulator and the move_base nodes of one arena."""
+class RosExecutor(SimEventMode):
+    """Executor over the simulator and the move_base nodes of one arena; in event mode the event
+    interface of ros/sim_events.py."""
 
     def __init__(self, scenario: Scenario, settings: RosExecutorSettings):
         self.scenario = scenario
@@ -101,6 +96,7 @@ class RosExecutor:
         self._starts = [(r.start.x, r.start.y, r.start.yaw) for r in scenario.robots]
         self._step_start = 0.0
         self._lost: Optional[str] = None   # set when a step was aborted: the next reset tries again
+        self._init_events()
 
     # ------------------------------------------------------------------ start-up
 
@@ -156,6 +152,7 @@ class RosExecutor:
         paused on the reset state. With a `seed` the simulator restarts this arena's noise streams
         from it (and its `seed` parameter): the episode then never depends on how many ticks ran
         before it, at start-up or in earlier episodes. Without one the streams run on."""
+        self._reset_events()
         self._pause(True)
         self._cancel_running()
         # On an aligned tick, so that the controllers' costmap updates (restarted by the clearing

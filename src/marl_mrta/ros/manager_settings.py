@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Dict, Optional
 
-from marl_mrta.env.settings import MASK_MODES
+from marl_mrta.env.settings import DECISION_MODES, MASK_MODES
 from marl_mrta.common.config import ConfigError, node_parameters, read_yaml
 from marl_mrta.common.paths import default_config_path
 from marl_mrta.ros.safety import SafetyLimits
@@ -86,6 +86,7 @@ class ManagerSettings:
     mode: str = "simulation"       # simulation | real
     real: RealRobotSettings = RealRobotSettings()
     hold_successors: Optional[bool] = None   # None: config/task.yaml's (model/rules.py)
+    decision_mode: Optional[str] = None      # synchronous | event; None: config/task.yaml's
 
 
 def read_manager_settings(params: Dict[str, Any], namespace: str,
@@ -139,10 +140,14 @@ def read_manager_settings(params: Dict[str, Any], namespace: str,
     hold = p.string("hold_successors")
     if hold not in HOLD_CHOICES:
         raise p.fail("hold_successors", f"{hold!r}: expected true, false or empty (config/task.yaml's)")
+    decision_mode = p.string("decision_mode")
+    if decision_mode and decision_mode not in DECISION_MODES:
+        raise p.fail("decision_mode", f"{decision_mode!r} is not one of {', '.join(DECISION_MODES)} "
+                                      f"(or empty: config/task.yaml's)")
     settings = ManagerSettings(scenario=scenario, mask=mask or None, task_config=p.string("task_config") or None,
                                reward_config=p.string("reward_config") or None,
                                marker_period=p.number("marker_period", minimum=0.0), executor=executor,
                                mode=mode, real=real,
-                               hold_successors=HOLD_CHOICES[hold])
+                               hold_successors=HOLD_CHOICES[hold], decision_mode=decision_mode or None)
     p.check_all_used(known=[k for k in values if k in p.used])
     return settings

@@ -1,6 +1,7 @@
 """The real executor: a decision step's goals driven by real robots (or the hardware stand-in),
-on wall time. Implements env.executor.Executor beside ros/executor.py (the simulation's), so the
-decision process and every task rule stay the one ROS-free implementation.
+on wall time. Implements env.executor.Executor beside ros/executor.py (the simulation's), and in
+event mode its event interface (ros/real_events.py), so the decision process and every task rule
+stay the one ROS-free implementation.
 
 What differs from the simulation (docs/guide/real_robots.md): time is the wall clock, no /clock and no
 simulator; a reset cannot teleport: every robot drives to its start pose through its move_base,
@@ -29,6 +30,7 @@ from marl_mrta.ros.fleet_link import FleetStop, FleetWatch, ScanFitWatch
 from marl_mrta.ros.localization_link import LocalizationLink
 from marl_mrta.ros.manager_settings import RealRobotSettings, RosExecutorSettings
 from marl_mrta.ros.move_base_link import MoveBaseLink, await_accepted, cancel_running, send_goals
+from marl_mrta.ros.real_events import RealEventMode
 from marl_mrta.ros.safety import SafetyMonitor
 from marl_mrta.ros.sim_clock import SimulatorLost, wait_wall
 from marl_mrta.ros.sim_link import quaternion_to_yaw
@@ -37,8 +39,9 @@ from marl_mrta.ros.sim_link import quaternion_to_yaw
 POLL = 0.01
 
 
-class RealExecutor:
-    """Executor over the move_base, amcl and base of every real robot of one fleet."""
+class RealExecutor(RealEventMode):
+    """Executor over the move_base, amcl and base of every real robot of one fleet; in event mode
+    the event interface of ros/real_events.py."""
 
     def __init__(self, scenario: Scenario, settings: RosExecutorSettings, real: RealRobotSettings):
         self.scenario = scenario
@@ -59,6 +62,7 @@ class RealExecutor:
         self._lost: Optional[str] = None   # a fault after a step's goals: the next step is aborted
         self._watch: Optional[FleetWatch] = None
         self._scan_fit: Optional[ScanFitWatch] = None
+        self._init_events()
 
     # ------------------------------------------------------------------ start-up, operator, faults
 
@@ -103,6 +107,7 @@ class RealExecutor:
     def reset(self, seed: Optional[int] = None) -> None:
         """Stops what runs, then drives every robot to its start pose (or takes where it stands)
         and waits for the operator's go. Real robots have no noise streams: `seed` changes nothing."""
+        self._reset_events()
         now = time.monotonic()
         self.monitor.rearm(now)
         fault = self.monitor.fault(now)

@@ -73,6 +73,7 @@ class SimulatorLink:
         self._lock = threading.Lock()
         self._truth: List[Optional[Tuple[float, Tuple[float, float, float]]]] = [None] * len(self.robots)
         self._acked = [-1] * len(self.robots)
+        self._goal_end = [0] * len(self.robots)   # LockstepAck.goal_end_tick, the latest answer's
         self._collisions: List[Tuple[float, int]] = []   # (sim time, robot index)
         self._reset = rospy.ServiceProxy(SIMULATOR + "/reset", ResetSim)
         self._pause = rospy.ServiceProxy(SIMULATOR + "/pause", SetBool)
@@ -137,12 +138,14 @@ class SimulatorLink:
                                 f"{SIMULATOR}/step {ticks}")
         return int(response.tick), response.stamp.to_sec()
 
-    def run_until(self, tick: int, goals_end_of: Sequence[str] = (), align_ticks: int = 0) -> None:
+    def run_until(self, tick: int, goals_end_of: Sequence[str] = (), align_ticks: int = 0,
+                  first_goal_end: bool = False) -> None:
         """Resumes a paused simulator, which pauses again by itself once `tick` is published, or
         earlier: on the first multiple of `align_ticks` at or after the tick on which the last of
-        the robots `goals_end_of` ended a goal (their lock-step controllers report it)."""
+        the robots `goals_end_of` ended a goal (their lock-step controllers report it), or with
+        `first_goal_end` the first of them (event mode)."""
         call_bounded(lambda: self._run_until(until_tick=tick, until_goals_end_of=list(goals_end_of),
-                                             align_ticks=align_ticks),
+                                             align_ticks=align_ticks, until_first_goal_end=first_goal_end),
                      self.answer_wall, f"{SIMULATOR}/run_until {tick}")
 
     def reset(self, poses: Sequence[Tuple[float, float, float]], seed: Optional[int] = None) -> None:
@@ -195,6 +198,12 @@ class SimulatorLink:
             parts.append("the simulator's log names the controllers it waits for")
         return "; ".join(parts) or "every robot answered"
 
+    def goal_end_tick(self, robot: int) -> int:
+        """The tick on which the robot's lock-step controller last ended a goal, as its latest
+        answer says (0: none yet; with one arena only: tracks_answers)."""
+        with self._lock:
+            return self._goal_end[robot]
+
     def poses(self) -> List[Optional[Tuple[float, float, float]]]:
         with self._lock:
             return [t[1] if t is not None else None for t in self._truth]
@@ -225,6 +234,7 @@ class SimulatorLink:
         if robot is not None:
             with self._lock:
                 self._acked[robot] = max(self._acked[robot], int(msg.tick))
+                self._goal_end[robot] = max(self._goal_end[robot], int(msg.goal_end_tick))
 
     def _on_collision(self, msg: CollisionEvent) -> None:
         robot = self._index.get(msg.robot)

@@ -1,10 +1,13 @@
 """rl_task_allocation_manager: the decision process of one arena on the ROS graph.
 
 A thin shell: the scenario, task rules, reward and episode logic are the ROS-free
-env.task_env.TaskEnvironment; this class gives it an executor (`mode`: simulation, the
-RosExecutor; real, the RealExecutor of real robots with ros/real_mode.py's services), serves
-`~reset` and `~step`, publishes the paper's topics and the rviz markers, and writes `~env` (the
-environment's sizes and settings) for clients such as ros/env_client.py.
+env.task_env.TaskEnvironment (decision_mode event: env.event_env.EventTaskEnvironment); this class
+gives it an executor (`mode`: simulation, the RosExecutor; real, the RealExecutor of real robots
+with ros/real_mode.py's services), serves `~reset` and `~step`, publishes the paper's topics and the
+rviz markers, and writes `~env` (the environment's sizes and settings) for clients such as
+ros/env_client.py. In event mode a step is a decision instant: the topics follow the events (a
+robot's goal when it is sent, a reach when a task is finished), and robots keep driving between
+steps.
 """
 from __future__ import annotations
 
@@ -47,7 +50,12 @@ class TaskManagerNode:
         self.real_services: Optional[RealModeServices] = None
         self.env = make_env(self.scenario, executor=self.executor, mask=settings.mask,
                             task_config=settings.task_config, reward_config=settings.reward_config,
-                            hold_successors=settings.hold_successors)
+                            hold_successors=settings.hold_successors, decision_mode=settings.decision_mode)
+        self.event = self.env.settings.decision_mode == "event"
+        if self.event:   # goals go out one by one, as the executor sends them
+            self.executor.goal_listener = self._on_goal_sent
+        self._deciding: List[bool] = [True] * self.scenario.n_robots   # event mode: of the last output
+        self._entries_seen = 0   # event mode: the record's entries published so far
         self.robot_ns = self.executor.namespaces
         self._lock = threading.Lock()
         self._episode_running = False
@@ -74,15 +82,16 @@ class TaskManagerNode:
             "scenario": str(self.scenario.source.resolve()), "robots": self.robot_ns,
             "n_agents": env.n_agents, "n_actions": env.n_actions, "obs_dim": env.obs_dim,
             "state_dim": env.state_dim, "mask": env.settings.mask, "min_step": env.settings.min_step,
-            "goal_timeout": env.settings.goal_timeout, "hold_successors": env.settings.hold_successors})
+            "goal_timeout": env.settings.goal_timeout, "hold_successors": env.settings.hold_successors,
+            "decision_mode": env.settings.decision_mode})
         rospy.Service("~reset", TaskReset, self._on_reset)
         rospy.Service("~step", TaskStep, self._on_step)
         self._publish_markers()
         if self.settings.marker_period > 0.0:
             threading.Thread(target=self._refresh_markers, daemon=True, name="markers").start()
-        rospy.loginfo("rl_task_allocation_manager: scenario %s (%s), %d robots, %d tasks, mask %s: ready",
+        rospy.loginfo("rl_task_allocation_manager: scenario %s (%s), %d robots, %d tasks, mask %s%s: ready",
                       self.scenario.name, self.scenario.source, self.scenario.n_robots, self.scenario.n_tasks,
-                      env.settings.mask)
+                      env.settings.mask, ", event mode" if self.event else "")
 
     # ------------------------------------------------------------------ services
 
@@ -96,6 +105,8 @@ class TaskManagerNode:
                 rospy.logerr("reset failed: %s", lost)
                 raise rospy.ServiceException(f"reset failed: {lost}") from None
             self._episode_running = True
+            self._deciding = self._deciding_of(output)
+            self._entries_seen = 0
             self._publish_markers()
             rospy.loginfo("episode reset (seed %d): robots on their start poses", request.seed)
             return TaskResetResponse(output=to_message(output))
@@ -108,6 +119,8 @@ class TaskManagerNode:
                 rospy.logerr("step refused: %s", problem)
                 raise rospy.ServiceException(problem)
             goals = [None if a == self.scenario.n_tasks else int(a) for a in actions]
+            if self.event:   # only the deciding robots' actions count
+                goals = [g if deciding else None for g, deciding in zip(goals, self._deciding)]
             self._publish_assignment(goals)
             self._driving.set()
             try:
@@ -116,6 +129,7 @@ class TaskManagerNode:
                 with self._marker_lock:
                     self._driving.clear()
             self._publish_results(output)
+            self._deciding = self._deciding_of(output)
             if output.done or output.truncated:
                 self._episode_running = False
                 self._log_end(output)
@@ -156,19 +170,34 @@ class TaskManagerNode:
         self._assigned = list(goals)
         self.pub_assigned.publish(TaskAssignment(stamp=now, step=self.env.step_index, robots=self.robot_ns,
                                                  tasks=[tasks[g].id if g is not None else "" for g in goals]))
+        if self.event:   # robots that drive on keep their tasks; goals go out as they are sent
+            self._assigned = [g if deciding else busy
+                              for g, deciding, busy in zip(goals, self._deciding, self._robot_tasks())]
+            self._publish_markers()
+            return
         for publisher, goal in zip(self.pub_goal, goals):
             if goal is None:
                 continue
-            msg = PoseStamped()
-            msg.header.stamp, msg.header.frame_id = now, self.settings.executor.map_frame
-            pose = tasks[goal].goal
-            msg.pose.position.x, msg.pose.position.y = pose.x, pose.y
-            o = msg.pose.orientation
-            o.x, o.y, o.z, o.w = yaw_to_quaternion(pose.yaw)
-            publisher.publish(msg)
+            self._publish_goal(publisher, goal, now)
         self._publish_markers()
 
+    def _publish_goal(self, publisher, task: int, stamp) -> None:
+        msg = PoseStamped()
+        msg.header.stamp, msg.header.frame_id = stamp, self.settings.executor.map_frame
+        pose = self.scenario.tasks[task].goal
+        msg.pose.position.x, msg.pose.position.y = pose.x, pose.y
+        o = msg.pose.orientation
+        o.x, o.y, o.z, o.w = yaw_to_quaternion(pose.yaw)
+        publisher.publish(msg)
+
+    def _on_goal_sent(self, robot: int, task: int) -> None:
+        """Event mode: the executor sent the robot its goal (and move_base took it)."""
+        self._publish_goal(self.pub_goal[robot], task, rospy.Time.now())
+
     def _publish_results(self, output: StepOutput) -> None:
+        if self.event:
+            self._publish_events(output)
+            return
         now = rospy.Time.now()
         info = output.info
         for i, (task, order) in enumerate(zip(info.finished_task, info.finish_order)):
@@ -189,6 +218,44 @@ class TaskManagerNode:
         self._assigned = [None] * self.scenario.n_robots
         self._publish_markers()
 
+    def _publish_events(self, output: StepOutput) -> None:
+        """Event mode: each task finished since the last step (its order from the record), the
+        transition's idle time, and the markers with the tasks robots still drive to or stand at."""
+        now = rospy.Time.now()
+        info = output.info
+        record = self.env.record
+        for entry in record.entries[self._entries_seen:]:
+            if entry.finished:
+                self.pub_reached.publish(TaskReached(stamp=now, robot=self.robot_ns[entry.robot],
+                                                     task=self.scenario.tasks[entry.task].id, order=int(entry.order),
+                                                     logic_correct=bool(entry.logic_correct)))
+                if entry.service_start is not None and entry.reach is not None and entry.service_start > entry.reach:
+                    rospy.loginfo("%s waited %.2f s at %s for its predecessors", self.robot_ns[entry.robot],
+                                  entry.service_start - entry.reach, self.scenario.tasks[entry.task].id)
+        self._entries_seen = len(record.entries)
+        self.pub_idle.publish(IdleTime(stamp=now, step=int(info.step), robots=self.robot_ns,
+                                       idle_time=[float(t) for t in info.idle_time]))
+        self._assigned = list(info.robot_tasks) if not (output.done or output.truncated) else [None] * len(self.robot_ns)
+        if any(task is not None for task in self._assigned):
+            self._driving.set()   # markers follow the robots between steps too (real robots drive on)
+        self._publish_markers()
+
+    def _robot_tasks(self) -> List[Optional[int]]:
+        """Event mode: per robot the task it drives to, holds at or serves (the rules')."""
+        return [robot.task for robot in self.env.rules.robots]
+
+    @staticmethod
+    def _deciding_of(output: StepOutput) -> List[bool]:
+        if output.deciding is None:
+            return [True] * len(output.obs)
+        return [bool(flag) for flag in output.deciding]
+
+    def _task_flags(self):
+        """Per task: finished, and in order (None while open)."""
+        if self.event:
+            return list(self.env.rules.finished), list(self.env.record.task_logic_correct)
+        return list(self.env.finished), list(self.env.task_correct)
+
     def _publish_markers(self, only_while_driving: bool = False) -> None:
         with self._marker_lock:   # the refresh thread never publishes an older state after a newer one
             if only_while_driving and not self._driving.is_set():
@@ -197,9 +264,9 @@ class TaskManagerNode:
             if env.record is None:   # real robots: no episode yet
                 return
             xy = [(p[0], p[1]) for p in self.executor.poses()]
+            finished, correct = self._task_flags()
             self.pub_markers.publish(task_markers(self.scenario, self.settings.executor.map_frame, rospy.Time.now(),
-                                                  list(env.finished), list(env.task_correct), list(self._assigned),
-                                                  xy))
+                                                  finished, correct, list(self._assigned), xy))
 
     def _refresh_markers(self) -> None:
         """Robot -> goal lines follow the robots while they drive."""

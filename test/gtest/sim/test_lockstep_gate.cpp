@@ -96,6 +96,37 @@ TEST(GoalEndWatch, AnAlignedEndOrNoAlignmentPausesOnTheEndTick) {
   EXPECT_EQ(watch.pauseTick(), 0u);
 }
 
+TEST(GoalEndWatch, WithFirstPausesOnTheAlignedTickAfterTheFirstWatchedGoalEnds) {
+  GoalEndWatch watch(3);
+  watch.goalEnded(0, 12);  // before the watch: does not count
+  watch.start({0, 1}, 40, 1, true);
+  EXPECT_TRUE(watch.active());
+  EXPECT_EQ(watch.pauseTick(), 0u) << "no watched goal has ended since tick 40";
+  watch.goalEnded(2, 45);  // not watched
+  EXPECT_EQ(watch.pauseTick(), 0u);
+  watch.goalEnded(0, 40);  // ended (cancelled) on the start tick itself: before the run
+  EXPECT_EQ(watch.pauseTick(), 0u);
+  watch.goalEnded(1, 47);
+  EXPECT_EQ(watch.pauseTick(), 47u) << "robot 1 came free on tick 47; robot 0 still drives";
+  watch.goalEnded(0, 52);  // a later end does not move the pause
+  EXPECT_EQ(watch.pauseTick(), 47u);
+  // Aligned: the first multiple of 20 at or after the earliest end; the last end would be 80.
+  watch.start({0, 1}, 52, 20, true);
+  watch.goalEnded(1, 61);
+  EXPECT_EQ(watch.pauseTick(), 80u);
+  watch.goalEnded(0, 55);
+  EXPECT_EQ(watch.pauseTick(), 60u);
+  // The same reports watched for the last end (synchronous mode) wait for both.
+  watch.start({0, 1}, 52, 20);
+  EXPECT_EQ(watch.pauseTick(), 80u);
+  watch.start({0, 1, 2}, 52, 20);
+  EXPECT_EQ(watch.pauseTick(), 0u) << "robot 2 has not ended a goal since tick 52";
+  watch.start({0, 1, 2}, 52, 20, true);
+  EXPECT_EQ(watch.pauseTick(), 60u);
+  watch.clear();
+  EXPECT_EQ(watch.pauseTick(), 0u);
+}
+
 TEST(RealTimePacer, StepsAreDueAtTheRealTimeFactor) {
   RealTimePacer pacer(20.0, 2.0, 1.0);  // a tick every 0.025 s of wall time
   EXPECT_NEAR(pacer.waitBeforeStep(100.0, 0), 0.025, 1e-12);

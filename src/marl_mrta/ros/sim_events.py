@@ -1,0 +1,215 @@
+"""Event mode on the simulator: env/executor.py's event interface for ros/executor.py's RosExecutor.
+
+`dispatch(robot, task)` sends the robot's goal with the simulator paused and waits until its
+move_base has taken it; `advance(until)` lets sim time run until the first of the running legs
+ends, a leg reaches its deadline (its start + goal_timeout: cancelled, failed "goal timeout"), or
+`until`, then reports the legs that ended, each robot's collision events since the last advance,
+and the time in s of sim time since the episode's start. The other robots' goals run on across
+events; service and holds are the rules' (the robots stand meanwhile).
+
+Lock-step determinism as in synchronous mode (ros/executor.py's docstring): the simulator pauses
+by itself on the tick on which the first watched goal ended (/simulator/run_until with
+until_first_goal_end), or on the tick of the deadline or `until`, never on a request, which would
+land a load-dependent number of ticks later with robots still moving; the legs that ended are
+those whose controllers reported a goal end up to that tick in their answers to it, whatever
+results have arrived by then. Robots whose controllers do not answer the lock-step (stock
+move_base without stock_lockstep), and several arenas on one clock, are watched through their
+results instead, as in synchronous mode. The episode's clock starts on the aligned tick before its
+first dispatch, as a synchronous step does.
+"""
+from __future__ import annotations
+
+import math
+from typing import Callable, List, Optional
+
+import rospy
+
+from marl_mrta.env.executor import EventAdvance, LegEnd
+from marl_mrta.evaluation.nav_comparison import is_stale_success
+from marl_mrta.ros.event_legs import GOAL_TIMEOUT, REACHED, Leg, LegBook
+from marl_mrta.ros.move_base_link import await_accepted
+from marl_mrta.ros.sim_clock import SimulatorLost, wait_wall
+from marl_mrta.ros.ticks import first_tick_at, sim_elapsed
+
+
+class SimEventMode:
+    """Mixin of RosExecutor (its simulator link, move_base links, clock and helpers): event mode."""
+
+    def _init_events(self) -> None:
+        self.legs = LegBook(self.n_robots, self.settings.goal_timeout)
+        #: Called with (robot, task) once a goal is sent and taken (the task manager's /<robot>/goal).
+        self.goal_listener: Optional[Callable[[int, int], None]] = None
+        self._reset_events()
+
+    def _reset_events(self) -> None:
+        self.legs.clear()
+        self._episode_start: Optional[float] = None   # sim time of the episode's start (its first event)
+        self._collisions_from = 0.0
+        self._event_time = 0.0
+
+    # ------------------------------------------------------------------ EventExecutor
+
+    def dispatch(self, robot: int, task: int) -> None:
+        """The robot's goal, sent with the simulator paused and taken by its move_base before time
+        runs on. A failure aborts the episode at the next advance()."""
+        if self._lost is not None:
+            return
+        try:
+            self._start_episode_clock()
+            stamp, tick = self._event_now()
+            goal = self.scenario.tasks[task].goal
+            self.bases[robot].send(goal.x, goal.y, goal.yaw)
+            self.legs.start(robot, task, max(self._since_start(stamp), self._event_time), stamp, tick)
+            await_accepted(self.bases, [robot], self.lost_after)
+        except SimulatorLost as lost:
+            self._events_lost(str(lost))
+            return
+        if self.goal_listener is not None:
+            self.goal_listener(robot, task)
+
+    def advance(self, until: float) -> EventAdvance:
+        if self._lost is not None:
+            return self._events_aborted(self._lost)
+        try:
+            self._start_episode_clock()
+            if not self._a_leg_ended():
+                self._run_to_event(self._episode_start + self.legs.stop_time(until))
+            return self._report(until)
+        except SimulatorLost as lost:
+            return self._events_aborted(str(lost))
+
+    # ------------------------------------------------------------------ helpers
+
+    def _start_episode_clock(self) -> None:
+        """The episode's time starts on an aligned tick, every controller caught up (as a step's)."""
+        if self._episode_start is not None:
+            return
+        t0 = self._settle(align=True)
+        if self.shared_clock:
+            t0 = max(t0, self.clock.now())
+        self._episode_start = self._collisions_from = t0
+
+    def _event_now(self):
+        """(sim time, tick) now: the paused tick, or on a shared clock the running time (tick 0)."""
+        if self.shared_clock:
+            return self.clock.now(), 0
+        tick, stamp = self.sim.step(0)
+        return stamp, tick
+
+    def _since_start(self, stamp: float) -> float:
+        return sim_elapsed(self._episode_start, stamp)
+
+    def _goal_ended(self, robot: int, leg: Leg) -> bool:
+        """Its controller reported a goal end after the leg's watch tick, or its result came."""
+        if self._reports_goal_ends(robot) and self.sim.goal_end_tick(robot) > leg.watch_tick:
+            return True
+        return self.bases[robot].result is not None
+
+    def _a_leg_ended(self) -> bool:
+        return any(self._goal_ended(i, self.legs.legs[i]) for i in self.legs.running())
+
+    def _run_to_event(self, stop: float) -> None:
+        """Sim time runs until the first running leg ends, or to the first tick at or after `stop`
+        (sim time); then the simulator is paused and every controller has seen the tick."""
+        rate = self.sim.config.physics_rate
+        running = self.legs.running()
+        watched = [i for i in running if self._reports_goal_ends(i)]
+        if not self.shared_clock:
+            tick, stamp = self.sim.step(0)
+            if tick >= first_tick_at(stop, rate):
+                return
+            self.sim.run_until(first_tick_at(stop, rate), [self.namespaces[i] for i in watched], 1,
+                               first_goal_end=True)
+        if self.clock.wait_until(self._a_leg_ended, stop) and watched:
+            # The simulator pauses by itself on the first watched end's tick: wait until it has.
+            ends = []
+            for i in watched:
+                leg, result = self.legs.legs[i], self.bases[i].result
+                if self.sim.goal_end_tick(i) > leg.watch_tick:
+                    ends.append(self.sim.goal_end_tick(i))
+                elif result is not None:
+                    ends.append(int(round(result.stamp * rate)))
+            if ends:
+                pause = min(ends) / rate
+                self.clock.wait_until(lambda: self.clock.now() >= pause - 1e-9, stop)
+        self._pause(True)
+        self.sim.wait_caught_up(*self.sim.step(0))
+
+    def _report(self, until: float) -> EventAdvance:
+        """The legs that ended by now (results, stale successes sent once more, deadlines)."""
+        stamp, tick = self._event_now()
+        now = max(self._since_start(stamp), self._event_time)
+        ended: List[LegEnd] = []
+        for i in self.legs.running():
+            leg = self.legs.legs[i]
+            if not self._goal_ended(i, leg):
+                continue
+            wait_wall(lambda: self.bases[i].result is not None, self.lost_after,
+                      f"{self.namespaces[i]}/move_base ended its goal, but no result came")
+            result = self.bases[i].result
+            if self._stale_success(leg, result):
+                leg.resent, leg.watch_tick = True, tick
+                goal = self.scenario.tasks[leg.task].goal
+                self.bases[i].send(goal.x, goal.y, goal.yaw)
+                await_accepted(self.bases, [i], self.lost_after)
+                continue
+            if self._since_start(result.stamp) > leg.deadline + REACHED:
+                continue   # ended after its deadline (a pause on request came late): a timeout, below
+            ended.append(LegEnd(i, result.succeeded, "" if result.succeeded else result.describe()))
+            self.legs.end(i)
+        for i in self.legs.overdue(now):
+            self._cancel_leg(i)
+            ended.append(LegEnd(i, False, GOAL_TIMEOUT))
+            self.legs.end(i)
+        if stamp >= self._episode_start + until - REACHED:
+            now = max(now, until)
+        self._event_time = now
+        collisions = self.sim.collisions_between(self._collisions_from, stamp)
+        self._collisions_from = max(self._collisions_from, stamp)
+        return EventAdvance(now, sorted(ended, key=lambda leg: leg.robot), collisions)
+
+    def _stale_success(self, leg: Leg, result) -> bool:
+        """Stock move_base's stale success (ros/executor.py's StaleSuccessGuard), once per leg."""
+        if leg.resent or not result.succeeded:
+            return False
+        pose = self.sim.poses()[leg.robot]
+        goal = self.scenario.tasks[leg.task].goal
+        distance = math.hypot(pose[0] - goal.x, pose[1] - goal.y) if pose is not None else None
+        if not is_stale_success(True, result.stamp - leg.sent, distance):
+            return False
+        rospy.logwarn("%s: move_base reported goal %s reached %.2f s after it was sent, %.2f m away "
+                      "(ros-planning/navigation#949): sent again", self.namespaces[leg.robot],
+                      self.scenario.tasks[leg.task].id, result.stamp - leg.sent, distance)
+        return True
+
+    def _cancel_leg(self, robot: int) -> None:
+        """A leg past its deadline: its goal cancelled (the built-in move_base stops within the
+        paused tick; stock move_base only between recovery behaviours, and the robot's next goal
+        replaces it)."""
+        base = self.bases[robot]
+        if base.idle:
+            return
+        base.cancel()
+        try:
+            wait_wall(lambda: base.idle, self.lost_after, "")
+        except SimulatorLost:
+            rospy.logwarn("%s: move_base has not ended the goal cancelled at its timeout (a recovery behaviour); "
+                          "the robot's next goal replaces it", self.namespaces[robot])
+
+    def _events_lost(self, reason: str) -> None:
+        """The episode cannot go on: every goal cancelled, the simulator paused."""
+        self._lost = reason
+        for base in self.bases:
+            base.cancel()
+        try:
+            self._pause(True)
+        except SimulatorLost:
+            pass
+
+    def _events_aborted(self, reason: str) -> EventAdvance:
+        self._events_lost(reason)
+        now = self._event_time
+        if self._episode_start is not None:
+            now = max(now, self._since_start(self.clock.now()))
+        self.legs.clear()
+        return EventAdvance(now, [], [0] * self.n_robots, aborted=True, abort_reason=reason)

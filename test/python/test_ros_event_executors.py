@@ -1,0 +1,222 @@
+"""Event mode's executors with test doubles for the move_base links, the safety monitor, the clock
+and the simulator. Real robots (ros/real_events.py): the first leg to end is reported while the
+other drives on, a leg past its goal timeout is cancelled and fails without stopping the fleet, and
+a goal move_base aborts, or any stop, ends the episode with every robot stopped, as in synchronous
+mode. The simulator (ros/sim_events.py): it is asked to pause on the first watched goal end or on
+the earliest leg deadline, and a stale success is driven once more."""
+from types import SimpleNamespace
+
+import pytest
+
+pytest.importorskip("tf2_ros", reason="ROS Python packages (the system's)")
+
+from actionlib_msgs.msg import GoalStatus  # noqa: E402
+
+from marl_mrta.env.executor import LegEnd  # noqa: E402
+from marl_mrta.ros import real_events  # noqa: E402
+from marl_mrta.ros.move_base_link import GoalResult  # noqa: E402
+from marl_mrta.ros.real_executor import RealExecutor  # noqa: E402
+
+
+class Clock:
+    """Wall time that moves only while the executor sleeps; `events` fire at their times."""
+
+    def __init__(self):
+        self.now = 100.0
+        self.events = []   # (time, action)
+
+    def sleep(self, seconds):
+        self.now += seconds
+        for due, action in [e for e in self.events if e[0] <= self.now + 1e-12]:
+            self.events.remove((due, action))
+            action()
+
+
+class FakeBase:
+    def __init__(self, clock, name):
+        self.clock, self.namespace = clock, name
+        self.result, self.sent, self.cancels, self.accepted = None, [], 0, False
+
+    def send(self, x, y, yaw):
+        self.sent.append((x, y))
+        self.result, self.accepted = None, True
+
+    def end(self, state, text=""):
+        self.result = GoalResult(state, text, self.clock.now)
+
+    def cancel(self):
+        self.cancels += 1
+        if self.result is None:
+            self.end(GoalStatus.PREEMPTED)
+
+    @property
+    def idle(self):
+        return not self.sent or self.result is not None
+
+
+class FakeRealRobots(real_events.RealEventMode):
+    _failed_goal = RealExecutor._failed_goal
+
+    def __init__(self, clock, goal_timeout=10.0):
+        self.n_robots = 2
+        self.namespaces = ["tb3_0", "tb3_1"]
+        goal = SimpleNamespace(x=1.0, y=2.0, yaw=0.0)
+        self.scenario = SimpleNamespace(tasks=[SimpleNamespace(id=f"T{j}", goal=goal) for j in range(3)])
+        self.settings = SimpleNamespace(goal_timeout=goal_timeout, simulator_lost_after=1.0, cancel_wait=1.0)
+        self.bases = [FakeBase(clock, "/" + ns) for ns in self.namespaces]
+        self.monitor = SimpleNamespace(tripped=False, reason="")
+        self.stops = []
+        self._lost = None
+        self._init_events()
+
+    def trip(self, reason, log=True):
+        self.stops.append(reason)
+        if not self.monitor.tripped:
+            self.monitor.tripped, self.monitor.reason = True, reason
+
+
+@pytest.fixture
+def robots(monkeypatch):
+    clock = Clock()
+    monkeypatch.setattr(real_events.rospy, "get_time", lambda: clock.now)
+    monkeypatch.setattr(real_events.time, "sleep", clock.sleep)
+    executor = FakeRealRobots(clock)
+    executor.clock = clock
+    return executor
+
+
+def test_the_first_leg_to_end_is_reported_while_the_other_drives_on(robots):
+    clock = robots.clock
+    robots.dispatch(0, 0)
+    robots.dispatch(1, 1)
+    clock.events.append((clock.now + 3.0, lambda: robots.bases[0].end(GoalStatus.SUCCEEDED, "Goal reached.")))
+    result = robots.advance(until=50.0)
+    assert not result.aborted and result.legs == [LegEnd(0, True)]
+    assert 3.0 <= result.time < 3.05
+    assert robots.bases[1].cancels == 0 and robots.legs.running() == [1]
+    # tb3_1's leg reaches its goal timeout (10 s after its start): cancelled, failed, no stop.
+    result = robots.advance(until=50.0)
+    assert result.legs == [LegEnd(1, False, "goal timeout")] and 10.0 <= result.time < 10.05
+    assert robots.bases[1].cancels == 1 and robots.stops == []
+    # Nothing runs: the wait ends at `until`.
+    assert 12.5 <= robots.advance(until=12.5).time < 12.55
+
+
+def test_a_goal_move_base_aborts_stops_every_robot_and_ends_the_episode(robots):
+    clock = robots.clock
+    robots.dispatch(0, 0)
+    robots.dispatch(1, 1)
+    clock.events.append((clock.now + 2.0, lambda: robots.bases[1].end(GoalStatus.ABORTED, "Failed to find a valid plan.")))
+    result = robots.advance(until=50.0)
+    assert result.aborted and result.abort_reason.startswith("tb3_1: move_base aborted: Failed to find a valid plan")
+    assert robots.stops == [result.abort_reason] and robots.legs.running() == []
+    assert robots.advance(until=50.0).aborted   # no leg goes on after a stop
+    robots.dispatch(0, 2)
+    assert len(robots.bases[0].sent) == 1
+
+
+def test_a_stop_while_robots_drive_ends_the_episode_with_its_reason(robots):
+    clock = robots.clock
+    robots.dispatch(0, 0)
+    clock.events.append((clock.now + 1.0, lambda: robots.trip("e-stop (~estop)")))
+    result = robots.advance(until=50.0)
+    assert result.aborted and result.abort_reason == "e-stop (~estop)"
+    assert 1.0 <= result.time < 1.05
+
+
+# ---------------------------------------------------------------------------------------------
+# The simulator's side (ros/sim_events.py), with a simulator double that pauses by itself as
+# /simulator/run_until does: on the first watched goal end, or on the tick asked for.
+from marl_mrta.ros import sim_events  # noqa: E402
+
+RATE = 20.0
+
+
+class FakeSimulator:
+    def __init__(self, executor):
+        self.executor = executor
+        self.tick = 40
+        self.config = SimpleNamespace(physics_rate=RATE)
+        self.ends = {}         # robot -> (tick, state) on which its goal will end
+        self.goal_end = [0, 0]
+        self.runs = []
+
+    def step(self, ticks=0):
+        return self.tick, self.tick / RATE
+
+    def run_until(self, tick, watched, align, first_goal_end=False):
+        self.runs.append((tick, list(watched), align, first_goal_end))
+        ends = [t for t, _ in self.ends.values() if t > self.tick]
+        self.tick = min([tick] + ends)
+        for robot, (end, state) in list(self.ends.items()):
+            if end <= self.tick:
+                self.goal_end[robot] = end
+                self.executor.bases[robot].result = GoalResult(state, "", end / RATE)
+                del self.ends[robot]
+
+    def goal_end_tick(self, robot):
+        return self.goal_end[robot]
+
+    def wait_caught_up(self, tick, stamp):
+        pass
+
+    def poses(self):
+        return [(1.0, 2.0, 0.0), (9.0, 9.0, 0.0)]
+
+    def collisions_between(self, start, end):
+        return [0, 0]
+
+
+class FakeSimRobots(sim_events.SimEventMode):
+    def __init__(self, goal_timeout=10.0):
+        self.n_robots = 2
+        self.namespaces = ["tb3_0", "tb3_1"]
+        goal = SimpleNamespace(x=1.0, y=2.0, yaw=0.0)
+        self.scenario = SimpleNamespace(tasks=[SimpleNamespace(id=f"T{j}", goal=goal) for j in range(3)])
+        self.settings = SimpleNamespace(goal_timeout=goal_timeout)
+        self.lost_after = 1.0
+        self.shared_clock = False
+        self.bases = [FakeBase(SimpleNamespace(now=0.0), "/" + ns) for ns in self.namespaces]
+        self.sim = FakeSimulator(self)
+        self.clock = SimpleNamespace(now=lambda: self.sim.tick / RATE,
+                                     wait_until=lambda predicate, deadline=None: predicate())
+        self._lost = None
+        self._init_events()
+
+    def _settle(self, align):
+        return self.sim.tick / RATE
+
+    def _pause(self, paused):
+        pass
+
+    def _reports_goal_ends(self, robot):
+        return True
+
+
+def test_the_simulator_pauses_on_the_first_goal_end_and_a_leg_times_out_on_its_own_deadline():
+    robots = FakeSimRobots(goal_timeout=30.0)
+    robots.dispatch(0, 0)
+    robots.dispatch(1, 1)
+    robots.sim.ends = {0: (100, GoalStatus.SUCCEEDED)}   # tb3_1 never arrives
+    result = robots.advance(until=20.0)
+    assert robots.sim.runs[-1] == (40 + 20 * 20, ["tb3_0", "tb3_1"], 1, True)
+    assert result.legs == [LegEnd(0, True)] and result.time == pytest.approx(3.0)
+    assert robots.legs.running() == [1] and robots.bases[1].cancels == 0
+    # tb3_1's deadline (30 s after the start) comes before `until`: the run stops there.
+    result = robots.advance(until=50.0)
+    assert robots.sim.runs[-1] == (40 + 30 * 20, ["tb3_1"], 1, True)
+    assert result.legs == [LegEnd(1, False, "goal timeout")] and result.time == pytest.approx(30.0)
+    assert robots.bases[1].cancels == 1
+
+
+def test_a_stale_success_is_driven_once_more_and_two_ends_on_one_tick_are_one_event():
+    robots = FakeSimRobots()
+    robots.dispatch(0, 0)
+    robots.dispatch(1, 1)
+    # tb3_1 is told it arrived one tick after the goal, 10 m away (ros-planning/navigation#949).
+    robots.sim.ends = {0: (80, GoalStatus.SUCCEEDED), 1: (41, GoalStatus.SUCCEEDED)}
+    result = robots.advance(until=50.0)
+    assert result.legs == [] and len(robots.bases[1].sent) == 2 and robots.legs.running() == [0, 1]
+    robots.sim.ends[1] = (80, GoalStatus.SUCCEEDED)
+    result = robots.advance(until=50.0)
+    assert result.legs == [LegEnd(0, True), LegEnd(1, True)] and result.time == pytest.approx(2.0)
