@@ -78,11 +78,12 @@ def looking_ahead(policy: SetActorPolicy, scenario: Scenario, mask: str, budget)
             "opening": lookahead.opening, "opening_s": lookahead.opening_s}
 
 
-def trained(scenario: Scenario, preset: str, seconds: float, seed: int, init: str, work: Path) -> Dict[str, float]:
+def trained(scenario: Scenario, preset: str, seconds: float, seed: int, init: str, work: Path,
+            decision_mode: str = "synchronous") -> Dict[str, float]:
     """MAPPO on one scenario within `seconds` of training wall time (the preset's other budgets
-    too), from the actor file `init` ("" : new weights): the greedy makespan of the actor the run
-    leaves (its best evaluation with keep_best, else its last)."""
-    config = load_config(resolve_preset(preset), {"max_wall_seconds": seconds})
+    too), from the actor file `init` ("" : new weights), in `decision_mode`: the greedy makespan of
+    the actor the run leaves (its best evaluation with keep_best, else its last)."""
+    config = load_config(resolve_preset(preset), {"max_wall_seconds": seconds, "decision_mode": decision_mode})
     make = embedded_factory(scenario, config)
     pool = set_view_pool(config, [scenario], seed) if config.actor == "set" else None
     runner = Runner(config, make, evaluate=on_new_env(make), scenario=str(scenario.source), seed=seed,
