@@ -35,6 +35,7 @@ RESULT_FILES: Dict[str, str] = {
     "bench_mappo": "MAPPO on lab_2r: time to a policy within 5 % of the proven optimum, throughput, the paper's settings against the tuned ones.",
     "bench_generalise": "The shipped generalist on generated scenarios it never saw: zero-shot, with lookahead, with rollout, fine-tuned; the GA beside it.",
     "bench_scale": "The reference solvers, the baselines and MAPPO from 2 robots x 8 tasks to 16 x 32.",
+    "bench_event": "The paper's synchronous steps against event mode on the labs, the site and generated floors: the best known plans and gaps, idle shares, the learned policies; Gantt charts of both modes in results/bench_event/.",
     "bench_sim": "The simulator's speed: the core alone and the node with every topic subscribed.",
     "bench_nav": "Built-in navigation: planning and control cycle times, a tour of the lab's goals, the whole graph in lock-step.",
     "bench_nav_vs_stock": "Built-in navigation and localisation against the stock navigation stack on the same legs.",
@@ -260,8 +261,10 @@ def launch_rows(path: Path) -> Tuple[str, List[Tuple[str, str, str]]]:
 
 # The reference pages of the launch files: (file name, title, what it covers, launch files).
 LAUNCH_PAGES = (
-    ("launch_tasks.md", "Launch files: task allocation", "Episodes, training, evaluation and real robots.",
-     ("tasks.launch", "task_manager.launch", "evaluate.launch", "execute.launch", "train.launch", "real.launch")),
+    ("launch_tasks.md", "Launch files: task allocation", "Episodes and evaluation in the ROS simulation.",
+     ("tasks.launch", "task_manager.launch", "evaluate.launch", "execute.launch")),
+    ("launch_train_real.md", "Launch files: training and real robots", "Training in the ROS simulation, and real robots.",
+     ("train.launch", "real.launch")),
     ("launch_sim_nav.md", "Launch files: simulator and navigation", "The simulator and navigation alone.",
      ("sim.launch", "sim_demo.launch", "nav.launch", "nav_robots.launch", "nav_legs.launch", "nav_bench.launch")),
 )
@@ -297,14 +300,18 @@ def check_coverage(root: Path) -> None:
 
 # ------------------------------------------------------------------------------------------ main
 
-def outputs(root: Path) -> Dict[Path, str]:
-    documents = load_results(root / "results")
+def outputs(root: Path, problems: List[str]) -> Dict[Path, str]:
+    """Every generated page; a part that cannot be made (a result file without provenance) is left
+    out and its problem added to `problems`, so that the others are still made."""
     readme = root / "README.md"
     check_coverage(root)
-    pages = {
-        root / "docs" / "results.md": results_page(documents),
-        readme: replace_block(readme.read_text(), README_BEGIN, README_END, readme_table(documents), str(readme)),
-    }
+    pages = {}
+    try:
+        documents = load_results(root / "results")
+        pages[root / "docs" / "results.md"] = results_page(documents)
+        pages[readme] = replace_block(readme.read_text(), README_BEGIN, README_END, readme_table(documents), str(readme))
+    except GenerationError as error:
+        problems.append(str(error))
     for name, title, summary, files in CONFIG_PAGES:
         pages[root / "docs" / "reference" / name] = config_page(root, title, summary, files)
     for name, title, summary, files in LAUNCH_PAGES:
@@ -317,21 +324,24 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     parser.add_argument("--check", action="store_true", help="only say which generated part is out of date")
     parser.add_argument("--root", type=Path, default=ROOT, help="the package's checkout")
     args = parser.parse_args(argv)
+    problems: List[str] = []
     try:
-        wanted = outputs(args.root)
+        wanted = outputs(args.root, problems)
     except GenerationError as error:
-        print(f"gen_docs: {error}", file=sys.stderr)
-        return 2
+        problems.append(str(error))
+        wanted = {}
+    for problem in problems:
+        print(f"gen_docs: {problem}", file=sys.stderr)
     stale = [path for path, text in wanted.items() if not path.is_file() or path.read_text() != text]
     if args.check:
         for path in stale:
             print(f"gen_docs: {path.relative_to(args.root)} is out of date: python3 tools/gen_docs.py", file=sys.stderr)
-        return 1 if stale else 0
+        return 1 if stale or problems else 0
     for path in stale:
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(wanted[path])
         print(f"gen_docs: wrote {path.relative_to(args.root)}")
-    return 0
+    return 2 if problems else 0
 
 
 if __name__ == "__main__":

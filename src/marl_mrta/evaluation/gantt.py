@@ -18,7 +18,8 @@ _CATEGORY_COLOURS = ("#4c72b0", "#dd8452", "#55a868", "#8172b3", "#937860", "#da
 def plot_gantt(record: EpisodeRecord, categories_by_task, path: Union[str, Path], title: str = "") -> Path:
     """One row per robot: navigation bars coloured by task category (hatched when the trip
     finished nothing), service time darker (with hold_successors, the wait before it too), idle time
-    grey, wrong-order finishes outlined red, dashed lines at step ends."""
+    grey, wrong-order finishes outlined red, dashed lines at step ends (event mode: none; a robot is
+    idle between one attempt's end and its next decision)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     categories = sorted(set(categories_by_task))
@@ -46,13 +47,25 @@ def plot_gantt(record: EpisodeRecord, categories_by_task, path: Union[str, Path]
             ax.broken_barh([(entry.end, entry.service_end - entry.end)], (y - 0.35, 0.7), facecolors="#333333")
             end = entry.service_end
         busy_until[(entry.robot, entry.step)] = end
-    for step, (start, end) in enumerate(zip(step_start, step_ends)):
+    if record.decision_mode == "event":
+        # No steps: a robot is idle from the end of one attempt to the start of its next.
         for robot in range(n_robots):
-            idle_from = busy_until.get((robot, step), start)
-            if end - idle_from > 1e-6:
-                ax.broken_barh([(idle_from, end - idle_from)], (n_robots - 1 - robot - 0.15, 0.3),
-                               facecolors="#cccccc")
-        ax.axvline(end, color="grey", linestyle="--", linewidth=0.6)
+            mine = sorted((e for e in record.entries if e.robot == robot), key=lambda e: e.start)
+            free = 0.0
+            for entry in mine + [None]:
+                start = record.makespan if entry is None else entry.start
+                if start - free > 1e-6:
+                    ax.broken_barh([(free, start - free)], (n_robots - 1 - robot - 0.15, 0.3), facecolors="#cccccc")
+                if entry is not None:
+                    free = busy_until.get((robot, entry.step), entry.end)
+    else:
+        for step, (start, end) in enumerate(zip(step_start, step_ends)):
+            for robot in range(n_robots):
+                idle_from = busy_until.get((robot, step), start)
+                if end - idle_from > 1e-6:
+                    ax.broken_barh([(idle_from, end - idle_from)], (n_robots - 1 - robot - 0.15, 0.3),
+                                   facecolors="#cccccc")
+            ax.axvline(end, color="grey", linestyle="--", linewidth=0.6)
     ax.set_yticks(range(n_robots))
     ax.set_yticklabels([f"R{i} ({rid})" for i, rid in enumerate(record.robot_ids)][::-1])
     ax.set_xlabel("episode time (s)")
