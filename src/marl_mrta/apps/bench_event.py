@@ -1,7 +1,7 @@
 """Benchmark: the paper's synchronous decision steps against event mode, side by side.
 
     rosrun marl_mrta bench_event [--out results] [--generated 20] [--robots 6 16] [--tasks 12 32]
-        [--reference-seconds 20] [--finetune-seconds 60] [--seed 21]
+        [--reference-seconds 20] [--finetune-seconds 60] [--seed 21] [--ros lab_2r,lab_4r,site_8r,site_16r]
 
 Scenarios: the three labs, site_8r, site_16r, and `--generated` scenarios drawn by the generator
 (teams and task counts in the given ranges, from `--seed`, which no training uses). Per scenario
@@ -13,7 +13,10 @@ and decision mode (embedded executor, ideal):
   summed over robots, over the time from the start to each robot's last finish);
 - the GA's plan;
 - the shipped generalist zero-shot (its greedy episode), and fine-tuned on the scenario for
-  `--finetune-seconds` of wall time (train's default preset, its teacher the mode's reference).
+  `--finetune-seconds` of wall time (train's default preset, its teacher the mode's reference);
+- on the `--ros` scenarios, the reference plan run once in the ROS simulation (evaluate.launch,
+  lock-step, built-in navigation) in each mode: its makespan against the embedded plan's, and its
+  legs against their nominal times (the longest ratio and excess: what a goal timeout must allow).
 Ratios are to the mode's own best known makespan. The event/synchronous ratio of the best known
 makespans says what the step barrier costs. Gantt charts of both modes' reference episodes go to
 <out>/bench_event/. Writes <out>/bench_event.json (headline first, tools/gen_docs.py).
@@ -21,17 +24,19 @@ makespans says what the step barrier costs. Gantt charts of both modes' referenc
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import sys
 import tempfile
 import time
 from pathlib import Path
-from typing import Any, Callable, Dict, List, Optional, Sequence
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 import torch
 
 from marl_mrta.apps.bench_generalise import ratio, summary_of, trained
+from marl_mrta.apps.bench_task_ros import run_ros_evaluation
 from marl_mrta.apps.train_generalist import generated_scenarios
 from marl_mrta.baselines.ga import solve_ga
 from marl_mrta.baselines.reference import scheduling_instance, solve_reference
@@ -66,7 +71,45 @@ def build_parser() -> argparse.ArgumentParser:
                         help="wall s of fine-tuning the generalist per scenario and mode (default 60; 0: none)")
     parser.add_argument("--finetune-modes", default="event",
                         help="decision modes in which the generalist is fine-tuned (default event)")
+    parser.add_argument("--ros", default="lab_2r,lab_4r,site_8r,site_16r",
+                        help="named scenarios whose reference plan also runs in the ROS simulation in both modes "
+                             "(evaluate.launch: lock-step, built-in navigation; one episode each); empty: none")
     return parser
+
+
+def ros_episode(scenario: Scenario, mode: str, work: Path) -> Dict[str, Any]:
+    """The mode's reference plan in the ROS simulation: its makespan against the embedded plan's,
+    complete and in order, and each leg's time against its nominal one."""
+    out = work / f"ros_{scenario.name}_{mode}.json"
+    try:
+        run_ros_evaluation(scenario.source, 1, out, 0, 3600.0, ("exact",), (f"decision_mode:={mode}",))
+    except RuntimeError as error:
+        return {"error": str(error)}
+    document = json.loads(out.read_text())
+    result = document["results"][0]
+    episode = result["representative_episode"]
+    planned = document["exact"]["makespan"]
+    instance = scheduling_instance(scenario, load_task_settings().min_step, math.inf, decision_mode=mode)
+    legs = leg_times(episode, instance)
+    return {"makespan": episode["makespan"], "planned": planned, "ratio": episode["makespan"] / planned,
+            "complete": episode["complete"], "logic_consistent": episode["logic_consistent"],
+            "leg_ratio_max": max((ros / nominal for ros, nominal in legs if nominal > 0), default=math.nan),
+            "leg_excess_max_s": max((ros - nominal for ros, nominal in legs), default=math.nan),
+            "leg_excess_mean_s": float(np.mean([ros - nominal for ros, nominal in legs])) if legs else math.nan}
+
+
+def leg_times(episode: Dict[str, Any], instance) -> List[Tuple[float, float]]:
+    """(driven, nominal) s of every leg that arrived, from where its robot stood (its start pose,
+    then the goal of the task it last reached)."""
+    at = list(range(instance.n_robots))
+    legs = []
+    for entry in sorted(episode["entries"], key=lambda e: (e["robot"], e["start"])):
+        if entry["reach"] is None:
+            continue
+        task = entry["task"]
+        legs.append((entry["reach"] - entry["start"], instance.travel_rows[at[entry["robot"]]][instance.node(task)]))
+        at[entry["robot"]] = instance.node(task)
+    return legs
 
 
 def idle_share(record, scenario: Scenario) -> float:
@@ -117,6 +160,7 @@ def bench(args: argparse.Namespace, log: Callable[[str], None] = print) -> Dict[
     task = load_task_settings()
     finetune_modes = [m.strip() for m in args.finetune_modes.split(",") if m.strip()]
     gantt_dir = args.out / "bench_event"
+    ros_names = [n.strip() for n in args.ros.split(",") if n.strip()]
     rows: List[Dict[str, Any]] = []
     with tempfile.TemporaryDirectory(prefix="bench_event_") as tmp:
         work = Path(tmp)
@@ -131,6 +175,8 @@ def bench(args: argparse.Namespace, log: Callable[[str], None] = print) -> Dict[
                                      args.finetune_seconds if mode in finetune_modes else 0.0, work / f"{k}_{mode}",
                                      gantt_dir if k < len(named) else None)
             row["event_over_sync"] = row["event"]["best"] / row["synchronous"]["best"]
+            if scenario.name in ros_names:
+                row["ros"] = {mode: ros_episode(scenario, mode, work) for mode in DECISION_MODES}
             rows.append(row)
             sync, event = row["synchronous"], row["event"]
             log(f"{k + 1}/{len(named) + len(generated)} {scenario.name} {scenario.n_robots}x{scenario.n_tasks}: "
@@ -182,6 +228,14 @@ def report(rows: List[Dict[str, Any]], args: argparse.Namespace) -> Dict[str, An
              "value": f"{100 * figures['generated_idle_share_sync_mean']:.1f} / "
                       f"{100 * figures['generated_idle_share_event_mean']:.1f}", "goal": ""},
         ]
+    for name in ("lab_2r", "lab_4r", "site_8r", "site_16r"):
+        ros = by_name.get(name, {}).get("ros", {})
+        for mode in DECISION_MODES:
+            if "ratio" in ros.get(mode, {}):
+                run = ros[mode]
+                headline.append({"figure": f"{name} in ROS, {mode}: the reference plan's makespan / the embedded plan's "
+                                           f"({'complete, in order' if run['complete'] and run['logic_consistent'] else 'NOT complete in order'})",
+                                 "unit": "", "value": round(run["ratio"], 4), "goal": "<= 1.10" if mode == "event" else ""})
     for name in ("site_8r", "site_16r"):
         if name in by_name and "finetuned" in by_name[name]["event"]:
             headline.append({"figure": f"{name}: the generalist fine-tuned, event / event best known", "unit": "",

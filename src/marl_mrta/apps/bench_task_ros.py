@@ -35,13 +35,14 @@ AGREEMENT_GOAL = 0.15
 
 
 def run_ros_evaluation(scenario: Path, episodes: int, out: Path, seed: int, timeout: float,
-                       methods: Sequence[str] = METHODS) -> float:
-    """evaluate.launch on its own master; returns its wall time. Raises RuntimeError on failure."""
+                       methods: Sequence[str] = METHODS, extra: Sequence[str] = ()) -> float:
+    """evaluate.launch (with `extra` arguments) on its own master; returns its wall time. Raises
+    RuntimeError on failure."""
     out = Path(out).resolve()   # the launched nodes run in ROS_HOME, not here
     port = free_port()
     env = dict(os.environ, ROS_MASTER_URI=f"http://localhost:{port}")
     command = ["roslaunch", "-p", str(port), "marl_mrta", "evaluate.launch", f"scenario:={scenario}",
-               f"method:={','.join(methods)}", f"episodes:={episodes}", f"seed:={seed}", f"out:={out}"]
+               f"method:={','.join(methods)}", f"episodes:={episodes}", f"seed:={seed}", f"out:={out}", *extra]
     print(f"{Path(sys.argv[0]).name}: {' '.join(command)}", file=sys.stderr, flush=True)
     started = time.monotonic()
     log = out.with_suffix(".log")
