@@ -1,6 +1,6 @@
 """launch/real.launch, read without starting anything: which episodes node each method gets, and
 what it is handed (the rollout its actor file, which the planners do not take); and `reference`
-of the launch files that run episodes."""
+and `goal_timeout` of the launch files that run episodes (the latter down to every task manager)."""
 import os
 
 import pytest
@@ -153,3 +153,47 @@ def test_reference_false_leaves_the_exact_reference_out(launch_file, args, runne
 
     assert "--no-exact" not in runner_args()
     assert "--no-exact" in runner_args("reference:=false")
+
+
+def goal_timeout_seen(launch_file, args, manager):
+    """The manager's ~goal_timeout and the episodes command's --goal-timeout (None: none)."""
+    config = roslaunch.config.load_config_default(
+        [(os.path.join(REPO, "launch", launch_file), ["roslaunch", *args])], None, verbose=False)
+    nodes = {n.namespace + n.name: n for n in config.nodes}
+    command = nodes["/evaluate"].args.split() if "/evaluate" in nodes else []
+    option = command[command.index("--goal-timeout") + 1] if "--goal-timeout" in command else None
+    return config.params[manager + "/goal_timeout"].value, option
+
+
+def test_the_goal_timeout_reaches_the_task_manager():
+    """goal_timeout:= reaches the manager's ~goal_timeout as a string ("": the scenario's, else
+    config/task.yaml's), and the episodes command that plans checks it against the manager's."""
+    manager = "/rl_task_allocation_manager"
+    assert goal_timeout_seen("task_manager.launch", [], manager) == ("", None)
+    assert goal_timeout_seen("task_manager.launch", ["goal_timeout:=auto"], manager) == ("auto", None)
+    assert goal_timeout_seen("real.launch", ["nav:=builtin", "method:=exact"], manager) == ("", None)
+    assert goal_timeout_seen("real.launch", ["nav:=builtin", "method:=exact", "goal_timeout:=90"], manager) == \
+        ("90", "90")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("launch_file, args, manager, option", [
+    ("tasks.launch", [], "/rl_task_allocation_manager", None),
+    ("tasks.launch", ["arenas:=2"], "/arena_1/rl_task_allocation_manager", None),
+    ("evaluate.launch", ["method:=exact"], "/rl_task_allocation_manager", "auto"),
+    ("evaluate.launch", ["method:=policy", "policy:=generalist"], "/rl_task_allocation_manager", None),
+    ("execute.launch", ["policy:=generalist"], "/rl_task_allocation_manager", None),
+    ("train.launch", ["backend:=ros"], "/arena_0/rl_task_allocation_manager", None)])
+def test_the_simulations_launch_files_give_the_goal_timeout_to_every_manager(launch_file, args, manager, option):
+    assert goal_timeout_seen(launch_file, args + ["goal_timeout:=auto"], manager) == ("auto", option)
+
+
+def test_the_goal_timeout_of_training_reaches_the_trainer():
+    def trainer(*extra):
+        config = roslaunch.config.load_config_default(
+            [(os.path.join(REPO, "launch", "train.launch"), ["roslaunch", *extra])], None, verbose=False)
+        return {n.namespace + n.name: n for n in config.nodes}["/rl_manager"].args.split()
+
+    assert "--goal-timeout" not in trainer()
+    command = trainer("goal_timeout:=auto")
+    assert command[command.index("--goal-timeout") + 1] == "auto"

@@ -3,7 +3,10 @@ and the simulator. Real robots (ros/real_events.py): the first leg to end is rep
 other drives on, a leg past its goal timeout is cancelled and fails without stopping the fleet, and
 a goal move_base aborts, or any stop, ends the episode with every robot stopped, as in synchronous
 mode. The simulator (ros/sim_events.py): it is asked to pause on the first watched goal end or on
-the earliest leg deadline, and a stale success is driven once more."""
+the earliest leg deadline, and a stale success is driven once more. With auto goal timeouts each leg
+has its own, from where its robot stands: a synchronous step on real robots waits for its longest
+leg and judges each robot by its own, and a leg reached in the simulation moves its robot's next
+deadline."""
 from types import SimpleNamespace
 
 import pytest
@@ -13,6 +16,7 @@ pytest.importorskip("tf2_ros", reason="ROS Python packages (the system's)")
 from actionlib_msgs.msg import GoalStatus  # noqa: E402
 
 from marl_mrta.env.executor import LegEnd  # noqa: E402
+from marl_mrta.model.goal_timeout import GoalTimeout, LegTimeouts  # noqa: E402
 from marl_mrta.ros import real_events  # noqa: E402
 from marl_mrta.ros.move_base_link import GoalResult  # noqa: E402
 from marl_mrta.ros.real_executor import RealExecutor  # noqa: E402
@@ -56,17 +60,20 @@ class FakeBase:
 
 class FakeRealRobots(real_events.RealEventMode):
     _failed_goal = RealExecutor._failed_goal
+    start_step = RealExecutor.start_step   # synchronous mode's step (real_executor.py)
 
     def __init__(self, clock, goal_timeout=10.0):
         self.n_robots = 2
         self.namespaces = ["tb3_0", "tb3_1"]
         goal = SimpleNamespace(x=1.0, y=2.0, yaw=0.0)
         self.scenario = SimpleNamespace(tasks=[SimpleNamespace(id=f"T{j}", goal=goal) for j in range(3)])
-        self.settings = SimpleNamespace(goal_timeout=goal_timeout, simulator_lost_after=1.0, cancel_wait=1.0)
+        self.settings = SimpleNamespace(simulator_lost_after=1.0, cancel_wait=1.0)
+        self.timeouts = LegTimeouts(GoalTimeout(goal_timeout), self.n_robots)
         self.bases = [FakeBase(clock, "/" + ns) for ns in self.namespaces]
         self.monitor = SimpleNamespace(tripped=False, reason="")
         self.stops = []
         self._lost = None
+        self._step_start = 0.0
         self._init_events()
 
     def trip(self, reason, log=True):
@@ -80,6 +87,9 @@ def robots(monkeypatch):
     clock = Clock()
     monkeypatch.setattr(real_events.rospy, "get_time", lambda: clock.now)
     monkeypatch.setattr(real_events.time, "sleep", clock.sleep)
+    from marl_mrta.ros import real_executor
+    monkeypatch.setattr(real_executor.rospy, "get_time", lambda: clock.now)
+    monkeypatch.setattr(real_executor.time, "sleep", clock.sleep)
     executor = FakeRealRobots(clock)
     executor.clock = clock
     return executor
@@ -100,6 +110,35 @@ def test_the_first_leg_to_end_is_reported_while_the_other_drives_on(robots):
     assert robots.bases[1].cancels == 1 and robots.stops == []
     # Nothing runs: the wait ends at `until`.
     assert 12.5 <= robots.advance(until=12.5).time < 12.55
+
+
+# Auto goal timeouts: nodes are the robots' starts, then the goals of tasks T0, T1, T2.
+NOMINAL = [[0.0, 5.0, 10.0, 40.0, 20.0],
+           [5.0, 0.0, 30.0, 40.0, 35.0],
+           [10.0, 30.0, 0.0, 15.0, 25.0],
+           [40.0, 40.0, 15.0, 0.0, 5.0],
+           [20.0, 35.0, 25.0, 5.0, 0.0]]
+
+
+def test_a_synchronous_step_waits_for_its_longest_leg_and_judges_each_robot_by_its_own(robots):
+    """tb3_0's leg to T0 (nominal 10 s) may take 2 x 10 + 30 = 50 s, tb3_1's to T1 (40 s) 110 s:
+    tb3_0 arriving after 60 s has failed it, tb3_1 after 100 s has not, and only tb3_1 now stands
+    on its task's goal, from where its next leg's timeout is taken."""
+    clock = robots.clock
+    robots.timeouts = robots.legs.timeouts = LegTimeouts(GoalTimeout(None, 2.0, 30.0), 2, NOMINAL)
+    t0 = clock.now
+    clock.events += [(t0 + 60.0, lambda: robots.bases[0].end(GoalStatus.SUCCEEDED, "Goal reached.")),
+                     (t0 + 100.0, lambda: robots.bases[1].end(GoalStatus.SUCCEEDED, "Goal reached."))]
+    outcome = robots.start_step([0, 1], time_limit=600.0)
+    assert [(r.reached, r.failure) for r in outcome.robots] == [(False, "goal timeout"), (True, "")]
+    assert outcome.robots[0].nav_time == 50.0 and outcome.robots[1].nav_time == pytest.approx(100.0, abs=0.02)
+    assert robots.timeouts.nodes == [0, 3]
+    assert robots.timeouts.limit(1, 2) == 2 * 5.0 + 30.0 and robots.timeouts.limit(0, 2) == 2 * 20.0 + 30.0
+    # No result at all: the step ends at its longest leg's timeout, the episode's time limit capping it.
+    t1 = clock.now
+    outcome = robots.start_step([None, 2], time_limit=30.0)
+    assert outcome.robots[1].failure == "goal timeout" and outcome.robots[1].nav_time == 30.0
+    assert 30.0 <= clock.now - t1 < 30.05
 
 
 def test_a_goal_move_base_aborts_stops_every_robot_and_ends_the_episode(robots):
@@ -173,7 +212,8 @@ class FakeSimRobots(sim_events.SimEventMode):
         self.namespaces = ["tb3_0", "tb3_1"]
         goal = SimpleNamespace(x=1.0, y=2.0, yaw=0.0)
         self.scenario = SimpleNamespace(tasks=[SimpleNamespace(id=f"T{j}", goal=goal) for j in range(3)])
-        self.settings = SimpleNamespace(goal_timeout=goal_timeout)
+        self.settings = SimpleNamespace()
+        self.timeouts = LegTimeouts(GoalTimeout(goal_timeout), self.n_robots)
         self.lost_after = 1.0
         self.shared_clock = False
         self.bases = [FakeBase(SimpleNamespace(now=0.0), "/" + ns) for ns in self.namespaces]
@@ -220,3 +260,20 @@ def test_a_stale_success_is_driven_once_more_and_two_ends_on_one_tick_are_one_ev
     robots.sim.ends[1] = (80, GoalStatus.SUCCEEDED)
     result = robots.advance(until=50.0)
     assert result.legs == [LegEnd(0, True), LegEnd(1, True)] and result.time == pytest.approx(2.0)
+
+
+def test_with_auto_a_leg_reached_in_the_simulation_moves_its_robots_next_deadline():
+    """Event mode on the simulator: tb3_0 reaches T0 at 3 s; its next leg, to T1, may take
+    2 x 15 + 30 s from there (not the 2 x 40 + 30 s from its start); tb3_1's failed leg leaves it
+    on its start."""
+    robots = FakeSimRobots()
+    robots.timeouts = robots.legs.timeouts = LegTimeouts(GoalTimeout(None, 2.0, 30.0), 2, NOMINAL)
+    robots.dispatch(0, 0)
+    robots.dispatch(1, 2)
+    assert [robots.legs.legs[i].deadline for i in (0, 1)] == [2 * 10.0 + 30.0, 2 * 35.0 + 30.0]
+    robots.sim.ends = {0: (100, GoalStatus.SUCCEEDED), 1: (120, GoalStatus.ABORTED)}
+    assert robots.advance(until=200.0).legs == [LegEnd(0, True)]
+    robots.dispatch(0, 1)
+    assert robots.legs.legs[0].deadline == pytest.approx(3.0 + 2 * 15.0 + 30.0)
+    assert robots.advance(until=200.0).legs[0].robot == 1
+    assert robots.timeouts.nodes == [2, 1]

@@ -63,11 +63,12 @@ def test_a_success_after_driving_or_a_failure_is_taken_as_it_is():
 
 # Event mode: each leg has its own goal timeout, so a wait for the next event ends at the earliest
 # leg deadline when that comes before `until` (ros/event_legs.py, both ROS executors).
+from marl_mrta.model.goal_timeout import GoalTimeout, LegTimeouts  # noqa: E402
 from marl_mrta.ros.event_legs import LegBook  # noqa: E402
 
 
 def test_a_wait_for_the_next_event_ends_at_the_earliest_leg_deadline():
-    book = LegBook(3, goal_timeout=60.0)
+    book = LegBook(3, LegTimeouts(GoalTimeout(60.0), 3))
     assert book.running() == [] and book.stop_time(120.0) == 120.0
     book.start(0, task=4, start=10.0, sent=1010.0, watch_tick=20200)
     book.start(2, task=1, start=35.5, sent=1035.5)
@@ -78,3 +79,22 @@ def test_a_wait_for_the_next_event_ends_at_the_earliest_leg_deadline():
     assert book.stop_time(120.0) == 95.5 and book.overdue(100.0) == [2]
     book.clear()
     assert book.running() == []
+
+
+def test_with_auto_each_leg_gets_its_deadline_from_where_its_robot_stands():
+    """Nodes: the two robots' starts, then the goals of tasks 0 and 1; a reached leg moves the
+    robot's node to the task's goal, a failed one leaves it, a reset puts it back on its start."""
+    nominal = [[0.0, 9.0, 10.0, 40.0],
+               [9.0, 0.0, 20.0, 25.0],
+               [10.0, 20.0, 0.0, 100.0],
+               [40.0, 25.0, 100.0, 0.0]]
+    book = LegBook(2, LegTimeouts(GoalTimeout(None, factor=2.0, margin=30.0), 2, nominal))
+    assert book.start(0, task=0, start=0.0, sent=0.0).deadline == 2 * 10.0 + 30.0
+    assert book.start(1, task=1, start=5.0, sent=5.0).deadline == 5.0 + 2 * 25.0 + 30.0
+    assert book.stop_time(500.0) == 50.0
+    book.end(0, reached=True)                   # tb3_0 now stands on task 0's goal
+    assert book.start(0, task=1, start=12.0, sent=12.0).deadline == 12.0 + 2 * 100.0 + 30.0
+    book.end(0)                                 # failed: it still stands on task 0's goal
+    assert book.start(0, task=1, start=300.0, sent=300.0).deadline == 300.0 + 230.0
+    book.reset()
+    assert book.running() == [] and book.start(0, task=1, start=0.0, sent=0.0).deadline == 2 * 40.0 + 30.0

@@ -36,6 +36,15 @@ def test_parameters_override_defaults_and_the_output_parameter_is_ignored():
     assert settings.executor.simulator_lost_after == 1.0
 
 
+def test_the_goal_timeout_is_the_scenarios_or_the_task_configs_unless_given():
+    """A launch file's goal_timeout arrives as a string (type="str"): "" is not given."""
+    assert read_manager_settings({"scenario": "s.xml"}, NODE).goal_timeout is None
+    assert read_manager_settings({"scenario": "s.xml", "goal_timeout": ""}, NODE).goal_timeout is None
+    assert read_manager_settings({"scenario": "s.xml", "goal_timeout": "auto"}, NODE).goal_timeout == "auto"
+    assert read_manager_settings({"scenario": "s.xml", "goal_timeout": "90"}, NODE).goal_timeout == 90.0
+    assert read_manager_settings({"scenario": "s.xml", "goal_timeout": 45}, NODE).goal_timeout == 45.0
+
+
 def test_the_decision_mode_is_the_task_configs_unless_given():
     assert read_manager_settings({"scenario": "s.xml"}, NODE).decision_mode is None
     assert read_manager_settings({"scenario": "s.xml", "decision_mode": ""}, NODE).decision_mode is None
@@ -53,7 +62,9 @@ def test_the_decision_mode_is_the_task_configs_unless_given():
     ({"scenario": "s.xml", "robot_prefix": "arena_1"}, NODE + "/robot_prefix: 'arena_1' must be empty or"),
     ({"scenario": "s.xml", "robot_prefix": "/arena_1/"}, NODE + "/robot_prefix: '/arena_1/' must be empty or"),
     ({"scenario": "s.xml", "map_frame": ""}, NODE + "/map_frame: expected a non-empty string, got ''"),
-    ({"scenario": "s.xml", "goal_timeout": 5.0}, NODE + "/goal_timeout: unknown parameter"),
+    ({"scenario": "s.xml", "goal_timeout": -5}, NODE + "/goal_timeout: must be positive, got -5 (or empty:"),
+    ({"scenario": "s.xml", "goal_timeout": "soon"}, NODE + "/goal_timeout: is not a number of seconds or auto: 'soon'"),
+    ({"scenario": "s.xml", "goal_timeouts": 5.0}, NODE + "/goal_timeouts: unknown parameter (did you mean goal_timeout?)"),
     ({"scenario": "s.xml", "decision_mode": "async"}, NODE + "/decision_mode: 'async' is not one of synchronous, event"),
 ])
 def test_bad_parameters_give_one_line(params, message):

@@ -258,10 +258,12 @@ def test_batched_rules_exclude_exactly_the_moves_that_fail_at_the_goal_timeout()
 def test_task_lists_whose_robot_swings_between_two_goals_still_decode_to_a_complete_schedule():
     # site_8r: robot 7 heads for task 10 (its predecessor 3 is last in its own list) over goal 4,
     # while its way to the ready task 12 leads back over goal 7; without the stalled rule the
-    # decoder swung between the two for ever.
+    # decoder swung between the two for ever. Under the fixed goal timeout of 60 s that forces those
+    # detours (an auto one lets every leg through).
     from marl_mrta.baselines.reference import scheduling_instance
-    env = make_env(ROOT / "scenarios" / "site_8r.xml")
+    env = make_env(ROOT / "scenarios" / "site_8r.xml", goal_timeout=60.0)
     instance = scheduling_instance(env.scenario, env.settings.min_step, env.settings.goal_timeout)
+    assert instance.goal_timeout == 60.0
     lists = [[15], [1, 4], [], [], [14, 13, 8, 2, 9, 6], [11], [], [10, 5, 0, 12, 7, 3]]
     run = decode_task_lists(instance, lists)
     assert run.complete and run.violations == 0

@@ -22,10 +22,11 @@ from marl_mrta.baselines.random_policy import RandomPolicy
 from marl_mrta.baselines.reference import scheduling_instance, solve_reference
 from marl_mrta.baselines.settings import load_baseline_settings
 from marl_mrta.env.factory import make_env
-from marl_mrta.env.settings import load_embedded_settings, load_task_settings
+from marl_mrta.env.settings import load_embedded_settings
 from marl_mrta.evaluation.loop import run_episodes
 from marl_mrta.evaluation.policies import PlanPolicy
-from marl_mrta.model.generator import DAG_KINDS, LAYOUTS, GeneratorError, ScenarioRequest, generate_scenario
+from marl_mrta.model.generator import (DAG_KINDS, DEFAULT_MAX_LEG, LAYOUTS, GeneratorError, ScenarioRequest,
+                                       generate_scenario)
 from marl_mrta.model.occupancy_map import FREE, OCCUPIED, UNKNOWN, MapOrigin, OccupancyMap, save_map
 from marl_mrta.model.scenario import footprint_radius, load_scenario
 from marl_mrta.model.travel import nominal_travel_table
@@ -93,6 +94,9 @@ def test_command_line_writes_the_scenarios(tmp_path):
     written = sorted((tmp_path / "out").glob("*.xml"))
     assert [p.name for p in written] == ["gen_000.xml", "gen_001.xml", "gen_002.xml"]
     assert all((load_scenario(p).n_robots, load_scenario(p).n_tasks) == (3, 6) for p in written)
+    # The longest leg kept is the generator's own 60 s (what config/task.yaml's fixed goal timeout
+    # gave it), not the goal timeout (auto): the same seeds draw the same files as before.
+    assert all("max_leg=60.0," in p.read_text() for p in written)
     bad = subprocess.run([sys.executable, script, str(tmp_path / "bad"), "--robots", "40"], capture_output=True,
                          text=True, env=env, timeout=120)
     assert bad.returncode == 2 and bad.stderr.strip() == "generate_scenarios: robots: 40 is not in 2..16"
@@ -121,8 +125,8 @@ def test_a_requests_navigation_files_go_into_the_scenario_and_time_its_legs(tmp_
 
 @pytest.fixture(scope="module")
 def generated(tmp_path_factory, travel_model):
-    """Small scenarios of every DAG kind (legs within the goal timeout, as the command line makes them)."""
-    base = ScenarioRequest(max_leg=load_task_settings().goal_timeout, name="done")
+    """Small scenarios of every DAG kind (legs within the default --max-leg, as the command line makes them)."""
+    base = ScenarioRequest(max_leg=DEFAULT_MAX_LEG, name="done")
     scenarios = []
     for k, dag in enumerate(DAG_KINDS * 2):
         request = replace(base, n_robots=2 + k % 4, n_tasks=5 + k, dag=dag, stages=2 + k % 3,
@@ -165,7 +169,7 @@ def _long_floor(directory: Path, yaw: float = 0.0) -> Path:
 
 def test_a_floor_of_ones_own_gives_reachable_poses_within_the_goal_timeout(tmp_path, travel_model):
     floor = _long_floor(tmp_path / "floor")
-    request = ScenarioRequest(n_robots=3, n_tasks=7, layout=str(floor), max_leg=load_task_settings().goal_timeout,
+    request = ScenarioRequest(n_robots=3, n_tasks=7, layout=str(floor), max_leg=DEFAULT_MAX_LEG,
                               name="own")
     scenario = generate_scenario(request, 3, tmp_path / "out", travel_model)
     assert scenario.map_path == floor.resolve()

@@ -110,11 +110,15 @@ def test_task_no_start_can_reach_is_named_when_building_the_environment():
 def test_task_only_legs_beyond_the_goal_timeout_lead_to_is_named_by_the_planners_instance():
     from marl_mrta.baselines.reference import scheduling_instance
     path = FIXTURES / "beyond_goal_timeout.xml"
-    env = make_env(path)   # navigation can plan there, just not within one goal's time
+    env = make_env(path)   # navigation can plan there, just not within the scenario's fixed goal timeout
+    assert env.settings.goal_timeout.seconds == 60.0
     with pytest.raises(ScenarioError) as error:
         scheduling_instance(env.scenario, env.settings.min_step, env.settings.goal_timeout)
     assert str(error.value) == (f"{path}: <task id=\"A1\">: no robot can reach its goal (15.4, 9.4): every way there "
-                                f"has a leg longer than the goal timeout ({env.settings.goal_timeout:g} s)")
+                                f"has a leg longer than the goal timeout (60 s)")
+    # With an auto goal timeout every leg is its own: the planners take it.
+    env = make_env(path, goal_timeout="auto")
+    assert scheduling_instance(env.scenario, env.settings.min_step, env.settings.goal_timeout).unreachable_tasks() == []
 
 
 @pytest.mark.parametrize("name,robots,tasks", [("site_8r", 8, 16), ("site_16r", 16, 32)])

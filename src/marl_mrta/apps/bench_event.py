@@ -89,7 +89,8 @@ def ros_episode(scenario: Scenario, mode: str, work: Path) -> Dict[str, Any]:
     result = document["results"][0]
     episode = result["representative_episode"]
     planned = document["exact"]["makespan"]
-    instance = scheduling_instance(scenario, load_task_settings().min_step, math.inf, decision_mode=mode)
+    task = load_task_settings().for_scenario(scenario)
+    instance = scheduling_instance(scenario, task.min_step, task.goal_timeout, decision_mode=mode)
     legs = leg_times(episode, instance)
     return {"makespan": episode["makespan"], "planned": planned, "ratio": episode["makespan"] / planned,
             "complete": episode["complete"], "logic_consistent": episode["logic_consistent"],
@@ -118,7 +119,8 @@ def idle_share(record, scenario: Scenario) -> float:
 
 def one_mode(scenario: Scenario, mode: str, settings, task, policy, mask: str, finetune_s: float, work: Path,
              gantt_dir: Optional[Path]) -> Dict[str, Any]:
-    instance = scheduling_instance(scenario, task.min_step, task.goal_timeout, decision_mode=mode)
+    own = task.for_scenario(scenario)   # the scenario's own goal timeout over config/task.yaml's
+    instance = scheduling_instance(scenario, own.min_step, own.goal_timeout, decision_mode=mode)
     ga = solve_ga(instance, settings.ga, seed=0)
     started = time.perf_counter()
     reference = solve_reference(instance, settings, candidates=[ga])

@@ -150,7 +150,8 @@ def bench(args: argparse.Namespace, log: Callable[[str], None] = print) -> Dict[
         labs = [load_scenario(package_root() / "scenarios" / f"{name}.xml") for name in LAB_SCENARIOS]
         for k, scenario in enumerate(labs + tests):
             lab = k < len(labs)
-            instance = scheduling_instance(scenario, task.min_step, task.goal_timeout)
+            own = task.for_scenario(scenario)   # the scenario's own goal timeout over config/task.yaml's
+            instance = scheduling_instance(scenario, own.min_step, own.goal_timeout)
             started = time.perf_counter()
             ga = solve_ga(instance, settings.ga, seed=0)
             ga_s = time.perf_counter() - started

@@ -41,6 +41,7 @@ from marl_mrta.evaluation.robot_actor import in_process_team
 from marl_mrta.evaluation.rollout import RolloutError, rollout_plan
 from marl_mrta.evaluation.summary import (ProgressLine, episode_rows, format_table, method_report)
 from marl_mrta.mappo.policy import PolicyFileError, load_policy
+from marl_mrta.model.goal_timeout import check_goal_timeout, describe_timeout
 from marl_mrta.model.scenario import Scenario, ScenarioError
 
 METHODS = ("random", "ga", "exact", "auction", "policy", "lookahead", "rollout")
@@ -71,6 +72,11 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> argparse.Namespace:
     parser.add_argument("--decision-mode", default=None, metavar="MODE",
                         help="synchronous (the paper's steps) or event (a robot decides when it comes free) "
                              "(default: config/task.yaml; --executor ros: the task manager's)")
+    parser.add_argument("--goal-timeout", default=None, metavar="auto|S",
+                        help="s a goal may take before it fails, or auto (each leg its own, from its nominal travel "
+                             "time: config/task.yaml's goal_timeout_factor and goal_timeout_margin) (default: the "
+                             "scenario's <episode goal_timeout>, else config/task.yaml's; --executor ros: the task "
+                             "manager's)")
     parser.add_argument("--no-both-references", dest="both_references", action="store_false",
                         help="do not also plan the other decision mode's reference (by default the two are "
                              "printed side by side and kept in the result file)")
@@ -107,6 +113,10 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> argparse.Namespace:
         raise UsageError(f"--episodes: must be at least 1, got {args.episodes}")
     if args.decision_mode is not None and args.decision_mode not in DECISION_MODES:
         raise UsageError(f"--decision-mode: {args.decision_mode!r} is not one of {', '.join(DECISION_MODES)}")
+    try:
+        args.goal_timeout = check_goal_timeout(args.goal_timeout, "--goal-timeout")
+    except ConfigError as error:
+        raise UsageError(str(error)) from None
     needs_actor = [m for m in methods if m in POLICY_METHODS]
     if needs_actor and not args.policy:
         raise UsageError(f"--policy: the {needs_actor[0]} method needs an actor file (--policy path/to/actor.pt)")
@@ -137,6 +147,9 @@ def make_ros_env(args: argparse.Namespace):
     if args.decision_mode and args.decision_mode != env.settings.decision_mode:
         raise UsageError(f"--decision-mode: {args.decision_mode} differs from the task manager's "
                          f"({env.settings.decision_mode})")
+    if args.goal_timeout is not None and args.goal_timeout != env.settings.goal_timeout.value:
+        raise UsageError(f"--goal-timeout: {describe_timeout(args.goal_timeout)} differs from the task manager's "
+                         f"({describe_timeout(env.settings.goal_timeout.value)}; start it with goal_timeout:=...)")
     if {"policy", "lookahead"} & set(args.methods):
         LearnedPolicy.trained_mask(args.policy, env.settings.mask)
     return env
@@ -242,7 +255,7 @@ def evaluate(args: argparse.Namespace) -> int:
             args.hold_successors = True
         env = make_env(args.scenario or DEFAULT_SCENARIO, args.executor, profile=args.profile, mask=args.mask,
                        seed=args.seed, hold_successors=True if args.hold_successors else None,
-                       decision_mode=args.decision_mode)
+                       decision_mode=args.decision_mode, goal_timeout=args.goal_timeout)
     scenario = env.scenario
     out = output_path(args, scenario.name)
     settings = load_baseline_settings().with_cpsat(args.time_limit, args.workers)
@@ -325,7 +338,9 @@ def evaluate(args: argparse.Namespace) -> int:
         "mode": getattr(env, "mode", "simulation"),
         # ros: the simulator's noise profile, which the episodes ran under
         "profile": env.noise_profile if args.executor == "ros" else args.profile or "default",
-        "mask": env.settings.mask, "hold_successors": env.settings.hold_successors, "episodes": args.episodes,
+        "mask": env.settings.mask, "hold_successors": env.settings.hold_successors,
+        "goal_timeout": env.settings.goal_timeout.value, "episode_timeout": scenario.episode_timeout,
+        "episodes": args.episodes,
         **({"decision_mode": mode} if mode != "synchronous" else {}),
         "seed": args.seed,
         "exact": plan_json(reference.plan, task_ids) if reference is not None else None,

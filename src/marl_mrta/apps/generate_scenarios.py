@@ -18,8 +18,9 @@ from pathlib import Path
 from typing import Optional, Sequence
 
 from marl_mrta.common.config import ConfigError
-from marl_mrta.env.settings import load_embedded_settings, load_task_settings
-from marl_mrta.model.generator import DAG_KINDS, LAYOUT_HELP, GeneratorError, ScenarioRequest, generate_scenarios
+from marl_mrta.env.settings import load_embedded_settings
+from marl_mrta.model.generator import (DAG_KINDS, DEFAULT_MAX_LEG, LAYOUT_HELP, GeneratorError, ScenarioRequest,
+                                       generate_scenarios)
 from marl_mrta.model.scenario import ScenarioError
 
 
@@ -36,7 +37,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     parser.add_argument("--dag", default=None, choices=DAG_KINDS, help="precedence shape")
     parser.add_argument("--stages", type=int, default=None, help="precedence depth (1: none)")
     parser.add_argument("--max-leg", type=float, default=None,
-                        help="s: redraw poses until no nominal leg is longer (default: config/task.yaml's goal timeout)")
+                        help=f"s: redraw poses until no nominal leg is longer (default {DEFAULT_MAX_LEG:g})")
     parser.add_argument("--name", default="gen", help="file name prefix (default gen)")
     parser.add_argument("--navigation", type=Path, default=None,
                         help="directory of the robots' navigation parameter files, written to each scenario's "
@@ -50,7 +51,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         if args.count < 1:
             raise GeneratorError(f"--count: must be at least 1, got {args.count}")
         model = load_embedded_settings().travel
-        max_leg = args.max_leg if args.max_leg is not None else load_task_settings().goal_timeout
+        max_leg = args.max_leg if args.max_leg is not None else DEFAULT_MAX_LEG
         if args.navigation is not None and not args.navigation.is_dir():
             raise GeneratorError(f"--navigation: {args.navigation} is not a directory")
         navigation = str(args.navigation.resolve()) if args.navigation is not None else None

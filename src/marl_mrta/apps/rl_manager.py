@@ -87,7 +87,8 @@ def execute(args: argparse.Namespace, log: Callable[[str], None]) -> Dict:
         document = {
             "scenario": str(env.scenario.source), "scenario_name": env.scenario.name, "executor": "ros",
             "execution": "decentralised", "mode": env.mode, "profile": env.noise_profile, "robots": namespaces,
-            "mask": env.settings.mask, "episodes": args.episodes, "seed": args.seed,
+            "mask": env.settings.mask, "goal_timeout": env.settings.goal_timeout.value, "episodes": args.episodes,
+            "seed": args.seed,
             "exact_makespan": best if reference is not None and reference.proven_optimal else None,
             "reference": reference.as_dict() if reference is not None else None,
             "seconds": seconds, **part, "records": episode_rows(records),

@@ -20,7 +20,8 @@ from marl_mrta.evaluation.training import in_pool, offer_teacher_plan, on_new_en
 from marl_mrta.mappo.config import MappoConfig, config_from_dict, load_config, resolve_preset
 from marl_mrta.mappo.runner import RunError, Runner
 from marl_mrta.mappo.training_env import embedded_factory, set_view_pool
-from marl_mrta.model.scenario import ScenarioError
+from marl_mrta.model.goal_timeout import TimeoutValue, check_goal_timeout
+from marl_mrta.model.scenario import ScenarioError, load_scenario
 
 #: The preset of a run without --preset: an actor file (--init, default the shipped generalist)
 #: fine-tuned on the scenario for a minute, which holds up on scenarios no preset was tuned on
@@ -53,6 +54,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--decision-mode", default=None, metavar="MODE",
                         help="synchronous (the paper's steps) or event (a robot decides when it comes free); "
                              "default: config/task.yaml's (a resumed run: its own)")
+    parser.add_argument("--goal-timeout", default=None, metavar="auto|S",
+                        help="s a goal may take before it fails, or auto (each leg its own, from its nominal travel "
+                             "time) (default: the scenario's <episode goal_timeout>, else config/task.yaml's; ros: "
+                             "the managers', checked when given)")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                         help="override one setting of the preset (YAML value), e.g. --set total_env_steps=2000")
     parser.add_argument("--seed", type=int, default=None, help="seed of everything random in the run (default 0)")
@@ -106,20 +111,31 @@ def _settings(args: argparse.Namespace, preset: str, fresh: bool = True) -> Mapp
     return load_config(resolve_preset(preset), overrides)
 
 
+def _goal_timeout(args: argparse.Namespace) -> Optional[TimeoutValue]:
+    """--goal-timeout: seconds or 'auto', None when not given; ConfigError (one line) when bad."""
+    return check_goal_timeout(args.goal_timeout, "--goal-timeout")
+
+
 def _backend(args: argparse.Namespace, config: MappoConfig, seed: int, scenario: Optional[str]) -> Dict[str, Any]:
     """Runner arguments of the chosen backend (environments and their greedy evaluation) and the
     scenario it runs."""
+    goal_timeout = _goal_timeout(args)
     if args.backend == "ros":
         if config.actor == "set":
             raise RunError("--backend ros: the set actor trains on the embedded backend (actor: set); "
                            "check it in ROS with evaluate.launch method:=policy")
         from marl_mrta.ros.arena_pool import arena_pool
-        pool, scenario = arena_pool(config, seed, scenario, args.manager_wait)
+        pool, scenario = arena_pool(config, seed, scenario, args.manager_wait, goal_timeout)
         return {"make_env": None, "pool": pool, "evaluate": in_pool(pool), "scenario": scenario}
-    make_env = embedded_factory(scenario, config)
+    # The command line's goal timeout over the scenario's and config/task.yaml's: the environments
+    # are built on the scenario carrying it (make_env takes a scenario's own over the file's).
+    loaded = load_scenario(scenario) if goal_timeout is not None else scenario
+    if goal_timeout is not None:
+        loaded = dataclasses.replace(loaded, goal_timeout=goal_timeout)
+    make_env = embedded_factory(loaded, config)
     if config.actor == "set":
         return {"make_env": make_env, "evaluate": on_new_env(make_env), "scenario": scenario,
-                "pool": set_view_pool(config, [scenario], seed)}
+                "pool": set_view_pool(config, [loaded], seed)}
     return {"make_env": make_env, "evaluate": on_new_env(make_env), "scenario": scenario}
 
 

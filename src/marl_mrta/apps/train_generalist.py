@@ -55,8 +55,8 @@ from marl_mrta.mappo.runner import RunError, Runner, make_deterministic
 from marl_mrta.mappo.set_networks import SetActor
 from marl_mrta.mappo.set_view import SetView
 from marl_mrta.mappo.training_env import set_view_pool
-from marl_mrta.model.generator import (LAYOUT_HELP, MAX_ROBOTS, MAX_TASKS, MIN_ROBOTS, MIN_TASKS, GeneratorError,
-                                       ScenarioRequest, generate_scenarios)
+from marl_mrta.model.generator import (DEFAULT_MAX_LEG, LAYOUT_HELP, MAX_ROBOTS, MAX_TASKS, MIN_ROBOTS, MIN_TASKS,
+                                       GeneratorError, ScenarioRequest, generate_scenarios)
 from marl_mrta.model.scenario import Scenario, ScenarioError, load_scenario
 
 #: Teams and task counts the generalist is trained on by default (the generator offers 2-16 robots, 4-32 tasks).
@@ -77,7 +77,7 @@ def generated_scenarios(count: int, seed: int, out_dir: Path, prefix: str,
     drawn from (seed, k) and the rest drawn by the generator (generate_scenarios: layout unless
     given, e.g. a map file of one's own floor, precedence, map size)."""
     model = load_embedded_settings().travel
-    max_leg = load_task_settings().goal_timeout
+    max_leg = DEFAULT_MAX_LEG   # the generator's own default (not the goal timeout): the same scenarios as ever
     draw = random.Random(seed)
     scenarios = []
     for k in range(count):

@@ -26,7 +26,8 @@ class SchedulingInstance:
     """Nodes 0..n_robots−1 are the robots' start poses, node n_robots + j is task j's goal.
 
     goal_timeout: a leg that takes longer fails in the environment (the robot stays where it
-    was), so planners only use legs within it and reach farther goals over other goals.
+    was), so planners only use legs within it and reach farther goals over other goals; inf with
+    an auto goal timeout (model/goal_timeout.py), under which no nominal leg fails.
     precedence_margin: in plans, a task finished in the same step as a predecessor is reached
     at least this long after the predecessor's finish (the rules ask only "after"), so that the
     plan stays in order when real legs run late against each other (config/task_baselines.yaml).

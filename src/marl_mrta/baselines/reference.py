@@ -1,7 +1,8 @@
 """The planners' view of a scenario and the reference every method is measured against.
 
 `scheduling_instance` reduces a scenario to the nominal numbers the planners work on (the
-travel-time table of the configured travel model, min_step, goal timeout). `solve_reference`
+travel-time table of the configured travel model, min_step, the longest leg the goal timeout
+allows: a fixed timeout's seconds, or with an auto goal timeout every finite leg). `solve_reference`
 finds the best known plan under the step rules and a proven lower bound on the optimum;
 `choose_solver` is where it is decided which solver serves a scenario:
 
@@ -30,7 +31,7 @@ import dataclasses
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Dict, List, Optional, Sequence, Tuple
+from typing import Dict, List, Optional, Sequence, Tuple, Union
 
 from marl_mrta.baselines.auction import solve_auction
 from marl_mrta.baselines.cpsat import STEP_TIME
@@ -42,6 +43,7 @@ from marl_mrta.baselines.relaxation import solve_relaxation
 from marl_mrta.baselines.settings import BaselineSettings, load_baseline_settings
 from marl_mrta.baselines.step_model import solve_step_model
 from marl_mrta.env.factory import scenario_travel_table
+from marl_mrta.model.goal_timeout import GoalTimeout
 from marl_mrta.model.scenario import Scenario, ScenarioError
 
 #: s: a best plan within this of the lower bound is proven optimal (the CP-SAT models count time
@@ -106,20 +108,26 @@ class Reference:
                 "solver": self.solver, "seconds": self.seconds, "log": list(self.log)}
 
 
-def scheduling_instance(scenario: Scenario, min_step: float, goal_timeout: float = INFINITE_TIME,
+def scheduling_instance(scenario: Scenario, min_step: float,
+                        goal_timeout: Union[float, GoalTimeout] = INFINITE_TIME,
                         precedence_margin: float = 0.0, hold_successors: bool = False,
                         decision_mode: str = "synchronous") -> SchedulingInstance:
     """The scenario in nominal numbers: plans always come from the nominal travel times.
+    goal_timeout: the longest leg a plan may use (s), or the rule (model/goal_timeout.py): fixed,
+    its seconds; auto, every finite leg (each leg's own timeout is longer than its nominal time).
     ScenarioError naming the first task no robot can reach (every way to its goal, over other
-    goals, has a leg beyond the goal timeout), so that no plan could ever finish it."""
-    instance = SchedulingInstance.from_scenario(scenario, scenario_travel_table(scenario), min_step, goal_timeout,
+    goals, has a leg beyond the goal timeout, or there is no way at all), so that no plan could
+    ever finish it."""
+    limit = goal_timeout.planning_limit if isinstance(goal_timeout, GoalTimeout) else float(goal_timeout)
+    instance = SchedulingInstance.from_scenario(scenario, scenario_travel_table(scenario), min_step, limit,
                                                 precedence_margin, hold_successors, decision_mode)
     unreachable = instance.unreachable_tasks()
     if unreachable:
         task = scenario.tasks[unreachable[0]]
+        why = (f"every way there has a leg longer than the goal timeout ({limit:g} s)" if math.isfinite(limit)
+               else "no way leads there")
         raise ScenarioError(f"{scenario.source}: <task id=\"{task.id}\">: no robot can reach its goal "
-                            f"({task.goal.x:g}, {task.goal.y:g}): every way there has a leg longer than the goal "
-                            f"timeout ({goal_timeout:g} s)")
+                            f"({task.goal.x:g}, {task.goal.y:g}): {why}")
     return instance
 
 
@@ -298,7 +306,7 @@ def exact_reference(instance: SchedulingInstance, settings: Optional[BaselineSet
 
 
 def scenario_reference(scenario: Scenario, min_step: float, settings: Optional[BaselineSettings] = None,
-                       goal_timeout: float = INFINITE_TIME, hold_successors: bool = False
+                       goal_timeout: Union[float, GoalTimeout] = INFINITE_TIME, hold_successors: bool = False
                        ) -> Tuple[Plan, SchedulingInstance]:
     """exact_reference of a scenario, with the instance it was solved on."""
     instance = scheduling_instance(scenario, min_step, goal_timeout, hold_successors=hold_successors)

@@ -5,8 +5,9 @@ profile of config/noise_profiles.yaml (the figures the simulator applies too): t
 uses the table's times unchanged; a noisy one stretches each path by 1 + |N(0, path_stretch_sd)|,
 drives it at the achieved speed and adds Poisson pauses (pause_rate per second of driving, each
 pause_duration long; the paper's measured TB3 behaviour: 0.19 m/s for 0.22, 3–6 pauses of
-0.5–1.2 s per episode). A leg longer than the goal timeout fails; a robot that fails or is cut by
-the episode's time limit stays where the step began (the table knows no intermediate poses).
+0.5–1.2 s per episode). A leg longer than its goal timeout fails (model/goal_timeout.py: a fixed
+timeout, or with auto the leg's own from its nominal time in the table); a robot that fails or is
+cut by the episode's time limit stays where the step began (the table knows no intermediate poses).
 With proximity_collisions, robots are placed along their paths over time and a pair whose
 centres come closer than `collision_distance` (their footprints meet) counts one collision
 event for each of them.
@@ -14,11 +15,12 @@ event for each of them.
 from __future__ import annotations
 
 import random
-from typing import List, Optional, Sequence, Set, Tuple
+from typing import List, Optional, Sequence, Set, Tuple, Union
 
 import numpy as np
 
 from marl_mrta.env.executor import EventAdvance, LegEnd, RobotOutcome, StepOutcome
+from marl_mrta.model.goal_timeout import GoalTimeout
 from marl_mrta.model.noise import NoiseProfile
 from marl_mrta.model.travel import TravelTable
 
@@ -26,12 +28,18 @@ from marl_mrta.model.travel import TravelTable
 class EmbeddedExecutor:
     """Executor on a TravelTable (see env/executor.py for the step contract)."""
 
-    def __init__(self, table: TravelTable, n_robots: int, profile: NoiseProfile, goal_timeout: float,
-                 seed: Optional[int] = None, collision_distance: float = 0.0, collision_dt: float = 0.2):
+    def __init__(self, table: TravelTable, n_robots: int, profile: NoiseProfile,
+                 goal_timeout: Union[float, GoalTimeout], seed: Optional[int] = None,
+                 collision_distance: float = 0.0, collision_dt: float = 0.2):
         self.table = table
         self.n_robots = n_robots
         self.profile = profile
-        self.goal_timeout = goal_timeout
+        rule = goal_timeout if isinstance(goal_timeout, GoalTimeout) else GoalTimeout(float(goal_timeout))
+        self.goal_timeout = rule
+        # Per leg (start node, goal node) its timeout: one number for a fixed rule, else a table
+        # from the nominal times (the same the ROS executors and the planners use).
+        self._fixed_limit = rule.seconds
+        self._limits = None if rule.seconds is not None else [[rule.leg(t) for t in row] for row in table.time_rows]
         self.nominal = profile.moves_as_planned
         self.collision_distance = collision_distance
         self.collision_dt = collision_dt
@@ -63,6 +71,10 @@ class EmbeddedExecutor:
         their leg time after it."""
         self.clock = float(now)
 
+    def leg_timeout(self, start: int, goal: int) -> float:
+        """s the leg from node `start` to node `goal` may take before it fails."""
+        return self._fixed_limit if self._limits is None else self._limits[start][goal]
+
     def leg_time(self, start: int, goal: int) -> float:
         """Seconds to drive from node `start` to node `goal` under the noise profile."""
         if self.nominal:
@@ -87,7 +99,7 @@ class EmbeddedExecutor:
     def start_step(self, goals: Sequence[Optional[int]], time_limit: float) -> StepOutcome:
         outcomes: List[RobotOutcome] = []
         legs = []
-        nodes, goal_timeout = self._nodes, self.goal_timeout
+        nodes, fixed, limits = self._nodes, self._fixed_limit, self._limits
         nominal = self.table.time_rows if self.nominal else None   # the table's times, nothing drawn
         for robot, task in enumerate(goals):
             start = nodes[robot]
@@ -98,6 +110,7 @@ class EmbeddedExecutor:
             goal = self.n_robots + task
             nav = nominal[start][goal] if nominal is not None else self.leg_time(start, goal)
             failure = ""
+            goal_timeout = fixed if limits is None else limits[start][goal]
             if nav > goal_timeout:
                 nav, failure = goal_timeout, "goal timeout"
             if nav > time_limit:
@@ -117,13 +130,15 @@ class EmbeddedExecutor:
     # ------------------------------------------------------------------ event mode
 
     def dispatch(self, robot: int, task: int) -> None:
-        """The robot leaves its node for the task's now; a leg longer than the goal timeout fails
+        """The robot leaves its node for the task's now; a leg longer than its goal timeout fails
         at the timeout, where the robot stays."""
         goal = self.n_robots + task
-        nav = self.leg_time(self._nodes[robot], goal)
+        start = self._nodes[robot]
+        nav = self.leg_time(start, goal)
         failure = ""
-        if nav > self.goal_timeout:
-            nav, failure = self.goal_timeout, "goal timeout"
+        goal_timeout = self.leg_timeout(start, goal)
+        if nav > goal_timeout:
+            nav, failure = goal_timeout, "goal timeout"
         self._legs[robot] = (self.clock + nav, goal, failure)
 
     def advance(self, until: float) -> EventAdvance:

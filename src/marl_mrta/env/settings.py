@@ -2,15 +2,19 @@
 (config/task_embedded.yaml), read strictly (unknown keys are errors)."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Dict, Optional, Union
+from typing import TYPE_CHECKING, Dict, Optional, Union
 
 from marl_mrta.common.config import ConfigError, read_yaml
 from marl_mrta.common.paths import default_config_path
+from marl_mrta.model.goal_timeout import GoalTimeout, TimeoutValue, parse_timeout
 from marl_mrta.model.noise import NoiseProfile, load_noise_profiles
 from marl_mrta.model.robot import load_robot
 from marl_mrta.model.travel import TravelModel
+
+if TYPE_CHECKING:
+    from marl_mrta.model.scenario import Scenario
 
 MASK_MODES = ("none", "finished", "logic")
 DECISION_MODES = ("synchronous", "event")
@@ -20,21 +24,38 @@ DECISION_MODES = ("synchronous", "event")
 class TaskSettings:
     mask: str            # none | finished | logic
     min_step: float      # s, shortest step (the whole step when every robot chose None)
-    goal_timeout: float  # s, per goal
+    goal_timeout: GoalTimeout   # per leg: fixed seconds, or auto (model/goal_timeout.py)
     hold_successors: bool = False   # a robot early at a successor waits for its predecessors (model/rules.py)
     # s a successor must be reached after its predecessor's finish in one step to count as in
     # order (model/rules.py's order_margin); not in task.yaml: a model that plans with a margin sets it
     precedence_margin: float = 0.0
     decision_mode: str = "synchronous"   # synchronous | event (env/task_env.py, env/event_env.py)
+    # <episode timeout="auto">: this × the sum over tasks of (shortest leg in + service), env/factory.py
+    episode_timeout_factor: float = 3.0
+
+    def for_scenario(self, scenario: "Scenario", goal_timeout: Optional[TimeoutValue] = None) -> "TaskSettings":
+        """These settings with the scenario's own goal timeout (<episode goal_timeout>) over the
+        file's, and `goal_timeout` (a command line's or a launch file's: seconds or 'auto') over both."""
+        rule = self.goal_timeout.with_value(scenario.goal_timeout).with_value(goal_timeout)
+        return self if rule == self.goal_timeout else replace(self, goal_timeout=rule)
 
 
 def load_task_settings(path: Optional[Union[str, Path]] = None) -> TaskSettings:
     root = read_yaml(path if path is not None else default_config_path("task.yaml"))
+    raw = root.raw("goal_timeout")
+    try:
+        value = parse_timeout(raw)
+    except ValueError as problem:
+        raise root.fail("goal_timeout", str(problem)) from None
+    rule = GoalTimeout(seconds=None if isinstance(value, str) else value,
+                       factor=root.number("goal_timeout_factor", minimum=1.0),
+                       margin=root.number("goal_timeout_margin", minimum=0.0))
     settings = TaskSettings(mask=root.choice("mask", list(MASK_MODES)),
                             min_step=root.number("min_step", minimum=1e-3),
-                            goal_timeout=root.number("goal_timeout", minimum=1e-3),
+                            goal_timeout=rule,
                             hold_successors=root.boolean("hold_successors", False),
-                            decision_mode=root.choice("decision_mode", list(DECISION_MODES)))
+                            decision_mode=root.choice("decision_mode", list(DECISION_MODES)),
+                            episode_timeout_factor=root.number("episode_timeout_factor", minimum=1.0))
     root.check_all_used()
     return settings
 

@@ -65,7 +65,7 @@ def offer_teacher_plan(runner: Runner, log: Callable[[str], None] = print) -> No
         return
     scenario = runner.replay_env()[0].scenario   # built once; self-imitation replays in it
     started = time.perf_counter()
-    task = load_task_settings()
+    task = load_task_settings().for_scenario(scenario)   # the goal timeout the run's episodes have
     event = runner.config.decision_mode == "event"
     instance = scheduling_instance(scenario, task.min_step, task.goal_timeout,
                                    hold_successors=runner.config.hold_successors,

@@ -58,6 +58,10 @@ DOOR = 1.0                 # m, door width: well above the robot's 0.21 m and na
 ESTIMATED_SPEED = 0.22     # m/s, for straight-line estimates without a travel model
 ESTIMATED_DETOUR = 1.3     # path length ÷ straight line, for those estimates
 REGION_SHRINK = 0.85       # a floor's drawn part, per draw whose legs were too long (own maps)
+# s: the longest nominal leg generate_scenarios and train_generalist keep by default (--max-leg). It
+# was config/task.yaml's goal_timeout when that was a fixed 60 s; now a number of its own, so that
+# the same seeds still draw the same scenarios whatever the goal timeout (auto by default) is.
+DEFAULT_MAX_LEG = 60.0
 
 
 class GeneratorError(ValueError):
@@ -77,7 +81,7 @@ class ScenarioRequest:
     service_times: Tuple[float, ...] = (0.0, 1.0, 2.0, 3.0)
     clearance: float = 0.35              # m from any obstacle to a start or goal
     spacing: float = 0.5                 # m between any two poses (at least the footprint)
-    max_leg: Optional[float] = None      # s: redraw poses while a nominal leg is longer (the goal timeout)
+    max_leg: Optional[float] = None      # s: redraw poses while a nominal leg is longer (DEFAULT_MAX_LEG, --max-leg)
     name: str = ""                       # default gen_<layout>_<robots>r<tasks>t_<seed>
     # The robots' navigation files (<robots navigation>; None: the package's). Left out of the
     # request's text, which seeds the draw: the same seed draws the same scenario with either.
@@ -359,7 +363,7 @@ def generate_scenario(request: ScenarioRequest, seed: int, out_dir: Path,
         path.write_text(scenario_xml(name, map_file, robots, tasks, preds, timeout, nav, comment, request.navigation))
         return load_scenario(path)
     raise GeneratorError(f"{name}: no draw in {attempts} keeps every leg within {request.max_leg:g} s; "
-                         "use a smaller map or a larger max_leg (the goal timeout, config/task.yaml)")
+                         "use a smaller map or a larger max_leg (--max-leg)")
 
 
 def generate_scenarios(count: int, seed: int, out_dir: Path, base: ScenarioRequest = ScenarioRequest(),

@@ -7,7 +7,9 @@ robots whose start footprints overlap, task goals closer than a robot's footprin
 cannot be finished within the episode timeout (its own service time, or the service times of
 the precedence chain before it), and precedence cycles are refused. What needs the travel times
 (a goal navigation cannot reach) is checked where they are computed (model/travel.py,
-baselines/reference.py).
+baselines/reference.py). `<episode timeout>` and its optional `goal_timeout` may be `auto`
+(model/goal_timeout.py): an auto episode timeout is computed from the travel table when the
+environment is built (env/factory.py), long enough for every chain of service times.
 """
 from __future__ import annotations
 
@@ -18,6 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Dict, List, Optional, Sequence, Tuple, Union
 
+from marl_mrta.model.goal_timeout import AUTO, TimeoutValue, parse_timeout
 from marl_mrta.model.occupancy_map import FREE, OCCUPIED, MapFileError, OccupancyMap, load_map, load_navigation_map
 from marl_mrta.common.paths import resolve_resource
 from marl_mrta.common.config import ConfigError
@@ -70,13 +73,18 @@ class Scenario:
     tasks: Tuple[TaskSpec, ...]
     predecessors: Tuple[Tuple[int, ...], ...]   # per task index: indices that must come first
     nav_thresholds: Optional[NavThresholds]   # None only from load_scenario(nav_time_required=False)
-    episode_timeout: float
+    # s; None: <episode timeout="auto">, computed from the travel table when the environment is
+    # built (env/factory.py make_env: its env.scenario always has a number)
+    episode_timeout: Optional[float]
     map_bounds: Tuple[float, float, float, float]   # x, y of the map's lower-left corner, width, height (m)
     reward_overrides: Dict[str, Dict[str, float]] = field(default_factory=dict)
     # The robots' navigation parameter files (the directory robot_nav.launch loads them from), when
     # the scenario names one (<robots navigation="...">), as an absolute path; None: the package's
     # config/nav.
     navigation_dir: Optional[Path] = None
+    # <episode goal_timeout>: seconds or "auto" (model/goal_timeout.py), over config/task.yaml's;
+    # None: not given. make_env's env.scenario carries the goal timeout its episodes run with.
+    goal_timeout: Optional[TimeoutValue] = None
 
     @property
     def n_robots(self) -> int:
@@ -146,6 +154,14 @@ class _Reader:
         if not math.isfinite(value):
             raise self.fail(element, f"attribute '{name}' is not finite: {raw!r}")
         return value
+
+    def timeout(self, element: ET.Element, name: str) -> TimeoutValue:
+        """A timeout attribute: a positive number of seconds, or auto."""
+        raw = self.text(element, name)
+        try:
+            return parse_timeout(raw)
+        except ValueError as problem:
+            raise self.fail(element, f"{name} {problem}") from None
 
     def single(self, root: ET.Element, tag: str, required: bool = True) -> Optional[ET.Element]:
         found = root.findall(tag)
@@ -229,11 +245,13 @@ def load_scenario(path: Union[str, Path], nav_time_required: bool = True) -> Sce
     predecessors = _read_precedence(reader, reader.single(root, "precedence", required=False), tasks)
 
     episode = reader.single(root, "episode")
-    reader.attributes(episode, ("timeout",))
-    timeout = reader.number(episode, "timeout")
-    if timeout <= 0.0:
-        raise reader.fail(episode, f"timeout must be positive, got {timeout:g}")
-    _check_chains_fit(reader, tasks_element, tasks, predecessors, timeout)
+    reader.attributes(episode, ("timeout",), ("goal_timeout",))
+    timeout = reader.timeout(episode, "timeout")
+    goal_timeout = reader.timeout(episode, "goal_timeout") if "goal_timeout" in episode.attrib else None
+    if timeout == AUTO:
+        timeout = None   # long enough for every chain of service times (env/factory.py)
+    else:
+        _check_chains_fit(reader, tasks_element, tasks, predecessors, timeout)
 
     thresholds = _read_nav_thresholds(reader, root, nav_time_required)
 
@@ -242,7 +260,7 @@ def load_scenario(path: Union[str, Path], nav_time_required: bool = True) -> Sce
                     predecessors=predecessors, nav_thresholds=thresholds, episode_timeout=timeout,
                     map_bounds=(grid_map.origin.x, grid_map.origin.y, grid_map.width * grid_map.resolution,
                                 grid_map.height * grid_map.resolution),
-                    reward_overrides=overrides, navigation_dir=navigation_dir)
+                    reward_overrides=overrides, navigation_dir=navigation_dir, goal_timeout=goal_timeout)
 
 
 def _read_posed(reader: _Reader, parent: ET.Element, tag: str, attributes: Sequence[str],

@@ -13,12 +13,15 @@ from marl_mrta.mappo.config import MappoConfig
 from marl_mrta.mappo.env_pool import EnvPool
 from marl_mrta.mappo.runner import RunError
 from marl_mrta.mappo.training_env import TrainingRewardEnv, training_reward
+from marl_mrta.model.goal_timeout import TimeoutValue, describe_timeout
 from marl_mrta.ros.env_client import ManagerUnavailable, RosTaskEnvClient, arena_managers
 
 
-def arena_pool(config: MappoConfig, seed: int, scenario: Optional[str], manager_wait: float) -> Tuple[EnvPool, str]:
+def arena_pool(config: MappoConfig, seed: int, scenario: Optional[str], manager_wait: float,
+               goal_timeout: Optional[TimeoutValue] = None) -> Tuple[EnvPool, str]:
     """The running task managers of config.n_envs arenas as a parallel EnvPool, and the scenario
-    file they run; checks that they run `scenario` (when given) and the mask the settings expect."""
+    file they run; checks that they run `scenario` (when given), the mask the settings expect and
+    `goal_timeout` (seconds or 'auto', when given)."""
     import rosgraph
     if not rosgraph.is_master_online():
         raise ManagerUnavailable(f"no ROS master at {rosgraph.get_master_uri()}: start the arenas first "
@@ -28,6 +31,10 @@ def arena_pool(config: MappoConfig, seed: int, scenario: Optional[str], manager_
     first = clients[0]
     for client in clients:
         check_manager(client, first, config, scenario)
+        if goal_timeout is not None and client.settings.goal_timeout.value != goal_timeout:
+            raise RunError(f"{client.manager}: goal_timeout: the manager's is "
+                           f"{describe_timeout(client.settings.goal_timeout.value)}, the training asks for "
+                           f"{describe_timeout(goal_timeout)} (start it with goal_timeout:={goal_timeout})")
     reward = training_reward(first.scenario, config.reward_overrides)
     envs = [TrainingRewardEnv(client, reward, client.n_tasks) for client in clients]
     return EnvPool(envs, seed, parallel=True, replayable=False), str(first.scenario_path)

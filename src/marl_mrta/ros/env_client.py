@@ -4,12 +4,14 @@ The learner, the baselines and the evaluation talk to it exactly as to an embedd
 environment: reset(seed) and step(actions) return StepOutputs (conversions.from_message),
 episode records included, and in event mode which robots decide (StepOutput.deciding) and the
 tasks the others are busy with (StepInfo.robot_tasks). The manager's `~env` parameter gives the
-sizes and settings, its decision mode included (settings.decision_mode).
+sizes and settings, its decision mode included (settings.decision_mode), and the goal timeout
+and episode timeout its episodes run with (the client's scenario carries them as make_env's does).
 """
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
-from typing import List, Optional, Sequence
+from typing import Any, Dict, List, Optional, Sequence
 
 import rospy
 
@@ -17,6 +19,7 @@ from marl_mrta.srv import TaskReset, TaskStep
 
 from marl_mrta.env.api import StepOutput
 from marl_mrta.env.settings import TaskSettings
+from marl_mrta.model.goal_timeout import GoalTimeout, parse_timeout
 from marl_mrta.model.scenario import Scenario, load_scenario
 from marl_mrta.ros.conversions import from_message
 from marl_mrta.ros.sim_clock import SimulatorLost
@@ -29,6 +32,21 @@ def arena_managers(arenas: int) -> List[str]:
     if arenas == 1:
         return [DEFAULT_MANAGER]
     return [f"/arena_{k}{DEFAULT_MANAGER}" for k in range(arenas)]
+
+
+def goal_timeout_parameters(env) -> Dict[str, Any]:
+    """The manager's `~env` entries of an environment's timeouts: its goal timeout rule (seconds
+    or 'auto', factor, margin) and its episode timeout (a number, an auto one computed)."""
+    rule = env.settings.goal_timeout
+    return {"goal_timeout": rule.value, "goal_timeout_factor": rule.factor, "goal_timeout_margin": rule.margin,
+            "episode_timeout": env.scenario.episode_timeout}
+
+
+def goal_timeout_of(env: Dict[str, Any]) -> GoalTimeout:
+    """The goal timeout rule of a manager's `~env` (goal_timeout_parameters)."""
+    value = parse_timeout(env["goal_timeout"])
+    return GoalTimeout(None if isinstance(value, str) else value, float(env["goal_timeout_factor"]),
+                       float(env["goal_timeout_margin"]))
 
 
 class ManagerUnavailable(RuntimeError):
@@ -51,9 +69,13 @@ class RosTaskEnvClient:
             raise ManagerUnavailable(f"{self.manager}: services reset/step not available after {wait_wall:.0f} s "
                                      f"(is the task manager running? roslaunch marl_mrta tasks.launch)") from None
         env = rospy.get_param(self.manager + "/env")
-        self.scenario: Scenario = load_scenario(env["scenario"])
+        goal_timeout = goal_timeout_of(env)
+        # As the manager's environment has it: the episode timeout a number, the goal timeout in force.
+        self.scenario: Scenario = dataclasses.replace(load_scenario(env["scenario"]),
+                                                      episode_timeout=float(env["episode_timeout"]),
+                                                      goal_timeout=goal_timeout.value)
         self.settings = TaskSettings(mask=env["mask"], min_step=float(env["min_step"]),
-                                     goal_timeout=float(env["goal_timeout"]),
+                                     goal_timeout=goal_timeout,
                                      hold_successors=bool(env.get("hold_successors", False)),
                                      decision_mode=str(env.get("decision_mode", "synchronous")))
         self.n_agents = int(env["n_agents"])

@@ -6,6 +6,12 @@ implementation; this class only moves robots and reports what
 happened: arrival and failure from the move_base results (their sim-time stamps), collisions
 from /simulator/collisions, poses from ground truth.
 
+Each leg has its own goal timeout (model/goal_timeout.py's LegTimeouts: fixed, or with auto from
+the leg's nominal travel time in the scenario's travel table, from the node the robot stands on:
+its start after a reset, the goal of the task it last reached). A synchronous step runs until
+every goal has ended or its longest leg's timeout; a robot whose result comes after its own
+timeout has failed ("goal timeout").
+
 Between steps the simulator is paused, so the time this node needs to think never shows in
 the world. A step starts on a tick aligned to `align_period` after every controller has
 caught up, with every goal accepted by its move_base before time runs, and the simulator
@@ -32,6 +38,7 @@ from std_srvs.srv import Empty
 
 from marl_mrta.env.executor import RobotOutcome, StepOutcome
 from marl_mrta.evaluation.nav_comparison import is_stale_success
+from marl_mrta.model.goal_timeout import LegTimeouts
 from marl_mrta.model.scenario import Scenario
 from marl_mrta.ros.manager_settings import RosExecutorSettings
 from marl_mrta.ros.localization_link import LocalizationLink
@@ -79,9 +86,10 @@ class RosExecutor(SimEventMode):
     """Executor over the simulator and the move_base nodes of one arena; in event mode the event
     interface of ros/sim_events.py."""
 
-    def __init__(self, scenario: Scenario, settings: RosExecutorSettings):
+    def __init__(self, scenario: Scenario, settings: RosExecutorSettings, timeouts: LegTimeouts):
         self.scenario = scenario
         self.settings = settings
+        self.timeouts = timeouts   # each leg's goal timeout, from where its robot stands
         self.n_robots = scenario.n_robots
         self.namespaces = [settings.robot_prefix + robot.id for robot in scenario.robots]
         self.lost_after = settings.lost_after(self.n_robots)
@@ -218,8 +226,9 @@ class RosExecutor(SimEventMode):
             t0 = max(t0, self.clock.now())   # time has run on since the aligned tick
         self._step_start = t0
         pending = send_goals(self.bases, self.scenario.tasks, goals)
-        limit = min(time_limit, self.settings.goal_timeout)
-        deadline = t0 + limit
+        # Each robot's own limit; the step runs to the longest.
+        limits = [min(time_limit, self.timeouts.limit(i, g)) if g is not None else 0.0 for i, g in enumerate(goals)]
+        deadline = t0 + min(time_limit, self.timeouts.step_limit(goals))
         try:
             await_accepted(self.bases, pending, self.lost_after)
             stale = StaleSuccessGuard(t0)
@@ -242,12 +251,15 @@ class RosExecutor(SimEventMode):
             if goal is None:
                 robots.append(RobotOutcome(has_goal=False, reached=False, nav_time=0.0, collisions=collisions[i]))
                 continue
-            result = self.bases[i].result
-            # A preempted goal is one this executor cancelled at the deadline: a timeout.
-            if result is not None and result.stamp <= deadline + 1e-9 and result.state != GoalStatus.PREEMPTED:
+            result, limit = self.bases[i].result, limits[i]
+            # A preempted goal is one this executor cancelled at the deadline: a timeout; so is a
+            # result after the robot's own deadline.
+            if result is not None and result.stamp <= t0 + limit + 1e-9 and result.state != GoalStatus.PREEMPTED:
                 nav_time = min(_elapsed(t0, max(result.stamp, t0)), limit)
                 failure = "" if result.succeeded else result.describe()
                 robots.append(RobotOutcome(True, result.succeeded, nav_time, collisions[i], failure))
+                if result.succeeded:
+                    self.timeouts.reached(i, goal)
             else:
                 robots.append(RobotOutcome(True, False, limit, collisions[i], "goal timeout"))
         return StepOutcome(robots=robots)

@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any, Dict, Optional
 
 from marl_mrta.env.settings import DECISION_MODES, MASK_MODES
+from marl_mrta.model.goal_timeout import TimeoutValue, check_goal_timeout
 from marl_mrta.common.config import ConfigError, node_parameters, read_yaml
 from marl_mrta.common.paths import default_config_path
 from marl_mrta.ros.safety import SafetyLimits
@@ -37,7 +38,6 @@ class RosExecutorSettings:
 
     robot_prefix: str = ""              # "" or "arena_k/": namespace prefix of this arena's robots
     arena: int = 0                      # arena index in the simulator
-    goal_timeout: float = 60.0          # s of sim time before a goal counts as failed (config/task.yaml)
     simulator_lost_after: float = 3.0   # s of wall time without an answer -> episode aborted (per ROBOTS_PER_LOST_AFTER)
     graph_wait: float = 60.0            # s of wall time to wait for the simulator and move_base at start
     cancel_wait: float = 15.0           # s (sim time; real mode: wall) for a cancelled goal to end: stock
@@ -87,6 +87,7 @@ class ManagerSettings:
     real: RealRobotSettings = RealRobotSettings()
     hold_successors: Optional[bool] = None   # None: config/task.yaml's (model/rules.py)
     decision_mode: Optional[str] = None      # synchronous | event; None: config/task.yaml's
+    goal_timeout: Optional[TimeoutValue] = None   # s or "auto"; None: the scenario's, else config/task.yaml's
 
 
 def read_manager_settings(params: Dict[str, Any], namespace: str,
@@ -144,10 +145,16 @@ def read_manager_settings(params: Dict[str, Any], namespace: str,
     if decision_mode and decision_mode not in DECISION_MODES:
         raise p.fail("decision_mode", f"{decision_mode!r} is not one of {', '.join(DECISION_MODES)} "
                                       f"(or empty: config/task.yaml's)")
+    goal_timeout = p.raw("goal_timeout")   # a launch file's "90" arrives as a string, a YAML 90 as a number
+    try:
+        goal_timeout = check_goal_timeout(goal_timeout, p.location("goal_timeout"))
+    except ConfigError as error:
+        raise ConfigError(f"{error} (or empty: the scenario's, else config/task.yaml's)") from None
     settings = ManagerSettings(scenario=scenario, mask=mask or None, task_config=p.string("task_config") or None,
                                reward_config=p.string("reward_config") or None,
                                marker_period=p.number("marker_period", minimum=0.0), executor=executor,
                                mode=mode, real=real,
-                               hold_successors=HOLD_CHOICES[hold], decision_mode=decision_mode or None)
+                               hold_successors=HOLD_CHOICES[hold], decision_mode=decision_mode or None,
+                               goal_timeout=goal_timeout)
     p.check_all_used(known=[k for k in values if k in p.used])
     return settings

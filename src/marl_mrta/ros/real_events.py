@@ -3,9 +3,9 @@ ros/real_executor.py's RealExecutor, on wall time.
 
 `dispatch(robot, task)` sends the robot's goal at once and waits until its move_base has taken it;
 `advance(until)` waits until the first running leg reaches its goal, a leg reaches its deadline
-(its start + goal_timeout: cancelled, failed "goal timeout"), or `until`, and reports the legs that
-ended at that moment (s of wall time since the episode's start, which is the first dispatch after
-the operator's go). The other robots drive on across events, and also while the client decides;
+(its start + its own goal timeout, ros/event_legs.py: cancelled, failed "goal timeout"), or
+`until`, and reports the legs that ended at that moment (s of wall time since the episode's
+start, which is the first dispatch after the operator's go). The other robots drive on across events, and also while the client decides;
 service and holds are the rules' (the robots stand meanwhile).
 
 Every safety stop stays as in synchronous mode: a fault (a silent robot, a lost master, a lost
@@ -34,13 +34,13 @@ class RealEventMode:
     """Mixin of RealExecutor (its move_base links, safety monitor and stop): event mode."""
 
     def _init_events(self) -> None:
-        self.legs = LegBook(self.n_robots, self.settings.goal_timeout)
+        self.legs = LegBook(self.n_robots, self.timeouts)
         #: Called with (robot, task) once a goal is sent and taken (the task manager's /<robot>/goal).
         self.goal_listener: Optional[Callable[[int, int], None]] = None
         self._reset_events()
 
     def _reset_events(self) -> None:
-        self.legs.clear()
+        self.legs.reset()
         self._episode_start: Optional[float] = None   # wall time of the episode's first event
         self._event_time = 0.0
 
@@ -84,7 +84,7 @@ class RealEventMode:
         ended: List[LegEnd] = []
         for i in reached:   # _failed_goal let only successes through
             ended.append(LegEnd(i, True))
-            self.legs.end(i)
+            self.legs.end(i, reached=True)
         overdue = self.legs.overdue(now)
         if overdue:
             # Stock move_base ends a goal only between recovery behaviours: a cancel gets cancel_wait.

@@ -13,6 +13,7 @@ whose scan stops fitting the map where localisation puts it (lost), a lost ROS m
 node shutting down. A stop withdraws the drive permit of the robots' cmd_vel gates,
 cancels every goal and sends zero cmd_vel (held for `stop_hold`); the step returns `aborted`
 with the reason, which ends the episode (env/task_env.py) and names the robot and the part.
+Goal timeouts are the simulation's: each leg its own (ros/executor.py), on wall time.
 """
 from __future__ import annotations
 
@@ -25,6 +26,7 @@ import tf2_ros
 
 from marl_mrta.env.executor import RobotOutcome, StepOutcome
 from marl_mrta.model.fleet import reset_groups
+from marl_mrta.model.goal_timeout import LegTimeouts
 from marl_mrta.model.scenario import Scenario, footprint_spacing
 from marl_mrta.ros.fleet_link import FleetStop, FleetWatch, ScanFitWatch
 from marl_mrta.ros.localization_link import LocalizationLink
@@ -43,9 +45,11 @@ class RealExecutor(RealEventMode):
     """Executor over the move_base, amcl and base of every real robot of one fleet; in event mode
     the event interface of ros/real_events.py."""
 
-    def __init__(self, scenario: Scenario, settings: RosExecutorSettings, real: RealRobotSettings):
+    def __init__(self, scenario: Scenario, settings: RosExecutorSettings, real: RealRobotSettings,
+                 timeouts: LegTimeouts):
         self.scenario = scenario
         self.settings = settings
+        self.timeouts = timeouts   # each leg's goal timeout, from where its robot stands (ros/executor.py)
         self.real = real
         self.n_robots = scenario.n_robots
         self.namespaces = [settings.robot_prefix + robot.id for robot in scenario.robots]
@@ -128,8 +132,9 @@ class RealExecutor(RealEventMode):
         t0 = rospy.get_time()
         self._step_start = t0
         pending = send_goals(self.bases, self.scenario.tasks, goals)
-        limit = min(time_limit, self.settings.goal_timeout)
-        deadline = t0 + limit
+        # Each robot's own limit (ros/executor.py); the step waits for the longest.
+        limits = [min(time_limit, self.timeouts.limit(i, g)) if g is not None else 0.0 for i, g in enumerate(goals)]
+        deadline = t0 + min(time_limit, self.timeouts.step_limit(goals))
         try:
             await_accepted(self.bases, pending, self.settings.simulator_lost_after, stop=lambda: self.monitor.tripped)
         except SimulatorLost as lost:
@@ -150,11 +155,12 @@ class RealExecutor(RealEventMode):
             return self._aborted(goals, t0, str(lost))
         robots = []
         for i, goal in enumerate(goals):
-            result = self.bases[i].result
+            result, limit = self.bases[i].result, limits[i]
             if goal is None:
                 robots.append(RobotOutcome(has_goal=False, reached=False, nav_time=0.0))
-            elif result is not None and result.succeeded and result.stamp <= deadline + 1e-9:
+            elif result is not None and result.succeeded and result.stamp <= t0 + limit + 1e-9:
                 robots.append(RobotOutcome(True, True, min(max(0.0, result.stamp - t0), limit)))
+                self.timeouts.reached(i, goal)
             else:
                 robots.append(RobotOutcome(True, False, limit, failure="goal timeout"))
         return StepOutcome(robots=robots)

@@ -2,7 +2,8 @@
 
 `dispatch(robot, task)` sends the robot's goal with the simulator paused and waits until its
 move_base has taken it; `advance(until)` lets sim time run until the first of the running legs
-ends, a leg reaches its deadline (its start + goal_timeout: cancelled, failed "goal timeout"), or
+ends, a leg reaches its deadline (its start + its own goal timeout, ros/event_legs.py: cancelled,
+failed "goal timeout"), or
 `until`, then reports the legs that ended, each robot's collision events since the last advance,
 and the time in s of sim time since the episode's start. The other robots' goals run on across
 events; service and holds are the rules' (the robots stand meanwhile).
@@ -36,13 +37,13 @@ class SimEventMode:
     """Mixin of RosExecutor (its simulator link, move_base links, clock and helpers): event mode."""
 
     def _init_events(self) -> None:
-        self.legs = LegBook(self.n_robots, self.settings.goal_timeout)
+        self.legs = LegBook(self.n_robots, self.timeouts)
         #: Called with (robot, task) once a goal is sent and taken (the task manager's /<robot>/goal).
         self.goal_listener: Optional[Callable[[int, int], None]] = None
         self._reset_events()
 
     def _reset_events(self) -> None:
-        self.legs.clear()
+        self.legs.reset()
         self._episode_start: Optional[float] = None   # sim time of the episode's start (its first event)
         self._collisions_from = 0.0
         self._event_time = 0.0
@@ -156,7 +157,7 @@ class SimEventMode:
             if self._since_start(result.stamp) > leg.deadline + REACHED:
                 continue   # ended after its deadline (a pause on request came late): a timeout, below
             ended.append(LegEnd(i, result.succeeded, "" if result.succeeded else result.describe()))
-            self.legs.end(i)
+            self.legs.end(i, reached=result.succeeded)
         for i in self.legs.overdue(now):
             self._cancel_leg(i)
             ended.append(LegEnd(i, False, GOAL_TIMEOUT))

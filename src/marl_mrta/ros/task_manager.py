@@ -23,10 +23,10 @@ from marl_mrta.msg import IdleTime, TaskAssignment, TaskReached
 from marl_mrta.srv import TaskReset, TaskResetResponse, TaskStep, TaskStepResponse
 
 from marl_mrta.env.api import StepOutput
-from marl_mrta.env.factory import make_env
-from marl_mrta.env.settings import load_task_settings
+from marl_mrta.env.factory import make_env, scenario_leg_timeouts
 from marl_mrta.model.scenario import load_scenario
 from marl_mrta.ros.conversions import to_message
+from marl_mrta.ros.env_client import goal_timeout_parameters
 from marl_mrta.ros.executor import RosExecutor
 from marl_mrta.ros.manager_settings import ManagerSettings
 from marl_mrta.ros.markers import task_markers
@@ -42,15 +42,17 @@ class TaskManagerNode:
     def __init__(self, settings: ManagerSettings):
         self.settings = settings
         self.scenario = load_scenario(settings.scenario)
-        task_settings = load_task_settings(settings.task_config)
-        executor_settings = replace(settings.executor, goal_timeout=task_settings.goal_timeout)
+        # Each leg's goal timeout, from the scenario's travel table (planned once, as make_env's).
+        timeouts = scenario_leg_timeouts(self.scenario, settings.task_config, settings.goal_timeout)
         self.real = settings.mode == "real"
-        self.executor = (RealExecutor(self.scenario, executor_settings, settings.real) if self.real
-                         else RosExecutor(self.scenario, executor_settings))
+        self.executor = (RealExecutor(self.scenario, settings.executor, settings.real, timeouts) if self.real
+                         else RosExecutor(self.scenario, settings.executor, timeouts))
         self.real_services: Optional[RealModeServices] = None
         self.env = make_env(self.scenario, executor=self.executor, mask=settings.mask,
                             task_config=settings.task_config, reward_config=settings.reward_config,
-                            hold_successors=settings.hold_successors, decision_mode=settings.decision_mode)
+                            hold_successors=settings.hold_successors, decision_mode=settings.decision_mode,
+                            goal_timeout=settings.goal_timeout)
+        self.scenario = self.env.scenario   # its episode timeout a number (an auto one computed)
         self.event = self.env.settings.decision_mode == "event"
         if self.event:   # goals go out one by one, as the executor sends them
             self.executor.goal_listener = self._on_goal_sent
@@ -82,8 +84,8 @@ class TaskManagerNode:
             "scenario": str(self.scenario.source.resolve()), "robots": self.robot_ns,
             "n_agents": env.n_agents, "n_actions": env.n_actions, "obs_dim": env.obs_dim,
             "state_dim": env.state_dim, "mask": env.settings.mask, "min_step": env.settings.min_step,
-            "goal_timeout": env.settings.goal_timeout, "hold_successors": env.settings.hold_successors,
-            "decision_mode": env.settings.decision_mode})
+            "hold_successors": env.settings.hold_successors, "decision_mode": env.settings.decision_mode,
+            **goal_timeout_parameters(env)})
         rospy.Service("~reset", TaskReset, self._on_reset)
         rospy.Service("~step", TaskStep, self._on_step)
         self._publish_markers()
