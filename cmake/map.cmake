@@ -10,4 +10,4 @@ install(TARGETS ${PROJECT_NAME}_map
   LIBRARY DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
 )
 
-marl_mrta_add_gtest(test_map_loading map TESTS occupancy_map LIBRARIES ${PROJECT_NAME}_map)
+marl_mrta_add_gtest(test_map_loading map TESTS occupancy_map map_server_maps LIBRARIES ${PROJECT_NAME}_map)

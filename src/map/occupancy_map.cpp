@@ -155,7 +155,7 @@ MapYaml readMapYaml(const std::string& yaml_path) {
     } else if (name == "raw") {
       out.mode = MapMode::kRaw;
     } else {
-      throw MapError(yaml_path, "mode", "unknown value '" + name + "' (expected trinary, scale or raw)");
+      throw MapError(yaml_path, "mode", "'" + name + "' is not one of trinary, scale, raw");
     }
   }
   return out;
@@ -188,9 +188,11 @@ std::vector<int8_t> occupancyFromImage(const MapImage& image, const MapYaml& par
           value = 0;
         } else if (params.mode == MapMode::kTrinary || alpha < 1) {
           value = 255;  // -1 as int8
-        } else {
+        } else if (params.occupied_thresh > params.free_thresh) {
           const double ratio = (occ - params.free_thresh) / (params.occupied_thresh - params.free_thresh);
           value = static_cast<uint8_t>(1 + 98 * ratio);
+        } else {
+          value = 0;  // equal thresholds, occ on them: map_server's 0/0 ratio, which x86 turns into 0
         }
       }
       cells[static_cast<size_t>(cy) * image.width + cx] = static_cast<int8_t>(value);

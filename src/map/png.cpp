@@ -38,6 +38,11 @@ void onPngError(png_structp png, png_const_charp message) {
 
 void onPngWarning(png_structp, png_const_charp) {}  // e.g. colour profile notes: not the map's concern
 
+// fread for libpng, with a message that says what went wrong (libpng's own says "Read Error").
+void readPngBytes(png_structp png, png_bytep data, png_size_t length) {
+  if (std::fread(data, 1, length, static_cast<FILE*>(png_get_io_ptr(png))) != length) png_error(png, "file truncated");
+}
+
 }  // namespace
 
 MapImage readPng(const std::string& path) {
@@ -50,7 +55,7 @@ MapImage readPng(const std::string& path) {
 
   // Only `state` (addressed) is read after a longjmp; nothing declared before this point changes.
   if (setjmp(png_jmpbuf(state.png))) throw MapError(path, "PNG", state.message);
-  png_init_io(state.png, file.get());
+  png_set_read_fn(state.png, file.get(), readPngBytes);
   png_read_info(state.png, state.info);
   const png_uint_32 width = png_get_image_width(state.png, state.info);
   const png_uint_32 height = png_get_image_height(state.png, state.info);
@@ -67,11 +72,12 @@ MapImage readPng(const std::string& path) {
                    "a palette image; map_server reads its palette indices as grey values, not its colours: "
                    "save the map as greyscale or RGB");
   }
-  // SDL_image's transformations: 8-bit samples (16-bit keep the high byte), small grey depths
-  // scaled to 0..255, grey + alpha as RGBA; a transparent colour (tRNS) adds no channel.
+  // SDL_image's transformations: 8-bit samples (16-bit keep the high byte); grey expanded, so that
+  // small depths scale to 0..255 and a transparent grey (tRNS) becomes an alpha channel (grey +
+  // alpha, 2 channels); grey + alpha as RGBA. An RGB image's tRNS adds no channel.
   png_set_strip_16(state.png);
   png_set_packing(state.png);
-  if (color_type == PNG_COLOR_TYPE_GRAY && bit_depth < 8) png_set_expand_gray_1_2_4_to_8(state.png);
+  if (color_type == PNG_COLOR_TYPE_GRAY) png_set_expand(state.png);
   if (color_type == PNG_COLOR_TYPE_GRAY_ALPHA) png_set_gray_to_rgb(state.png);
   png_read_update_info(state.png, state.info);
 
@@ -89,10 +95,10 @@ MapImage readPng(const std::string& path) {
   std::vector<png_bytep> rows(height);
   for (png_uint_32 row = 0; row < height; ++row) rows[row] = image.pixels.data() + row * row_bytes;
 
-  // From here libpng writes only into the buffers above; an error jumps back here.
+  // From here libpng writes only into the buffers above; an error jumps back here. Nothing after
+  // the image data is read (no png_read_end), as SDL_image: a file without IEND is a map there.
   if (setjmp(png_jmpbuf(state.png))) throw MapError(path, "PNG", state.message);
   png_read_image(state.png, rows.data());
-  png_read_end(state.png, nullptr);
   return image;
 }
 

@@ -15,8 +15,17 @@ double searchDouble(const std::vector<const ParamNode*>& scopes, const std::stri
   return default_value;
 }
 
+// Costmap2DROS copies some of the costmap's own parameters into a layer's namespace, over the
+// layer's own value (copyParentParameters; for the pre-Hydro static layer, loadOldParameters):
+// the namespace such a key is read from. The layer's value, overwritten there, counts as read.
+const ParamNode& fromCostmap(const ParamNode& layer_ns, const ParamNode* costmap_ns, const std::string& key) {
+  if (costmap_ns == nullptr || !costmap_ns->has(key)) return layer_ns;
+  layer_ns.accept(key);
+  return *costmap_ns;
+}
+
 ObservationSourceConfig readSource(const ParamNode& layer_ns, const std::string& source_name,
-                                   const std::vector<const ParamNode*>& outer_scopes) {
+                                   const std::vector<const ParamNode*>& outer_scopes, const ParamNode* costmap_ns) {
   if (!layer_ns.has(source_name)) {
     throw ParamError(layer_ns.pathOf(source_name), "observation source listed in observation_sources but not defined");
   }
@@ -37,31 +46,44 @@ ObservationSourceConfig readSource(const ParamNode& layer_ns, const std::string&
   source.inf_is_valid = source_ns.getBool("inf_is_valid", false);
   source.clearing = source_ns.getBool("clearing", false);
   source.marking = source_ns.getBool("marking", true);
-  std::vector<const ParamNode*> scopes{&source_ns};
-  scopes.insert(scopes.end(), outer_scopes.begin(), outer_scopes.end());
-  source.obstacle_range = searchDouble(scopes, "obstacle_range", 2.5);
-  source.raytrace_range = searchDouble(scopes, "raytrace_range", 3.0);
+  // Searched upwards from the source's namespace (ros::NodeHandle::searchParam), the layer's
+  // holding the costmap's value where it has one.
+  auto search = [&](const std::string& key, double default_value) {
+    std::vector<const ParamNode*> scopes{&source_ns};
+    for (const ParamNode* scope : outer_scopes) {
+      scopes.push_back(scope == &layer_ns ? &fromCostmap(layer_ns, costmap_ns, key) : scope);
+    }
+    return searchDouble(scopes, key, default_value);
+  };
+  source.obstacle_range = search("obstacle_range", 2.5);
+  source.raytrace_range = search("raytrace_range", 3.0);
   return source;
 }
 
-ObstacleLayerConfig readObstacleLayer(const ParamNode& layer_ns, const std::vector<const ParamNode*>& scopes) {
+// costmap_ns: the costmap whose parameters are copied over the layer's (plugin style); null when
+// the costmap's namespace is the layer's (pre-Hydro).
+ObstacleLayerConfig readObstacleLayer(const ParamNode& layer_ns, const std::vector<const ParamNode*>& scopes,
+                                      const ParamNode* costmap_ns) {
   ObstacleLayerConfig config;
   config.footprint_clearing_enabled = layer_ns.getBool("footprint_clearing_enabled", true);
-  config.max_obstacle_height = layer_ns.getDouble("max_obstacle_height", 2.0);
+  config.max_obstacle_height =
+      fromCostmap(layer_ns, costmap_ns, "max_obstacle_height").getDouble("max_obstacle_height", 2.0);
   config.combination_method = layer_ns.getInt("combination_method", 1, 0, 1);
-  config.track_unknown_space = layer_ns.getBool("track_unknown_space", false);
+  // Default: the costmap's own track_unknown_space, false unless set (copied over when it is).
+  config.track_unknown_space =
+      fromCostmap(layer_ns, costmap_ns, "track_unknown_space").getBool("track_unknown_space", false);
   layer_ns.accept("enabled");
   std::istringstream names(layer_ns.getString("observation_sources", ""));
   std::string name;
-  while (names >> name) config.sources.push_back(readSource(layer_ns, name, scopes));
+  while (names >> name) config.sources.push_back(readSource(layer_ns, name, scopes, costmap_ns));
   return config;
 }
 
-StaticLayerConfig readStaticLayer(const ParamNode& layer_ns, const ParamNode* fallback) {
-  // In the pre-Hydro style these four live at the costmap's top level.
-  auto pick = [&](const std::string& key) -> const ParamNode& {
-    return (fallback && !layer_ns.has(key) && fallback->has(key)) ? *fallback : layer_ns;
-  };
+StaticLayerConfig readStaticLayer(const ParamNode& layer_ns, const ParamNode* costmap_ns) {
+  // These four are the costmap's own when it sets them, in either style (copied over the layer's).
+  // Unset, track_unknown_space is the layer's default, true: the map's unknown cells stay unknown
+  // here (an obstacle layer that does not track unknown space then writes them free).
+  auto pick = [&](const std::string& key) -> const ParamNode& { return fromCostmap(layer_ns, costmap_ns, key); };
   StaticLayerConfig config;
   config.map_topic = pick("map_topic").getString("map_topic", "map");
   config.unknown_cost_value = pick("unknown_cost_value").getInt("unknown_cost_value", -1, -1, 255);
@@ -75,10 +97,12 @@ StaticLayerConfig readStaticLayer(const ParamNode& layer_ns, const ParamNode* fa
   return config;
 }
 
-InflationLayerConfig readInflationLayer(const ParamNode& layer_ns) {
+InflationLayerConfig readInflationLayer(const ParamNode& layer_ns, const ParamNode* costmap_ns) {
   InflationLayerConfig config;
-  config.inflation_radius = layer_ns.getDouble("inflation_radius", 0.55, 0.0);
-  config.cost_scaling_factor = layer_ns.getDouble("cost_scaling_factor", 10.0, 0.0);
+  config.inflation_radius =
+      fromCostmap(layer_ns, costmap_ns, "inflation_radius").getDouble("inflation_radius", 0.55, 0.0);
+  config.cost_scaling_factor =
+      fromCostmap(layer_ns, costmap_ns, "cost_scaling_factor").getDouble("cost_scaling_factor", 10.0, 0.0);
   config.inflate_unknown = layer_ns.getBool("inflate_unknown", false);
   layer_ns.accept("enabled");
   return config;
@@ -100,13 +124,12 @@ void readPreHydroLayers(const ParamNode& ns, CostmapConfig& config) {
   LayerSpec obstacle;
   obstacle.kind = LayerSpec::Kind::kObstacle;
   obstacle.name = "obstacle_layer";
-  obstacle.obstacle_layer = readObstacleLayer(ns, {&ns});
-  obstacle.obstacle_layer.track_unknown_space = ns.getBool("track_unknown_space", false);
+  obstacle.obstacle_layer = readObstacleLayer(ns, {&ns}, nullptr);
   config.layers.push_back(obstacle);
   LayerSpec inflation;
   inflation.kind = LayerSpec::Kind::kInflation;
   inflation.name = "inflation_layer";
-  inflation.inflation_layer = readInflationLayer(ns);
+  inflation.inflation_layer = readInflationLayer(ns, nullptr);
   config.layers.push_back(inflation);
 }
 
@@ -125,13 +148,13 @@ void readPluginLayers(const ParamNode& ns, CostmapConfig& config) {
     const ParamNode layer_ns = ns.child(spec.name);
     if (type == "costmap_2d::StaticLayer") {
       spec.kind = LayerSpec::Kind::kStatic;
-      spec.static_layer = readStaticLayer(layer_ns, nullptr);
+      spec.static_layer = readStaticLayer(layer_ns, &ns);
     } else if (type == "costmap_2d::ObstacleLayer") {
       spec.kind = LayerSpec::Kind::kObstacle;
-      spec.obstacle_layer = readObstacleLayer(layer_ns, {&layer_ns, &ns});
+      spec.obstacle_layer = readObstacleLayer(layer_ns, {&layer_ns, &ns}, &ns);
     } else if (type == "costmap_2d::InflationLayer") {
       spec.kind = LayerSpec::Kind::kInflation;
-      spec.inflation_layer = readInflationLayer(layer_ns);
+      spec.inflation_layer = readInflationLayer(layer_ns, &ns);
     } else {
       throw ParamError(where, "layer type '" + type + "' is not available in the built-in costmap");
     }

@@ -80,7 +80,9 @@ std::unique_ptr<MarlMrtaTravel> planAllPairs(const std::string& map_yaml, const 
   MoveBaseCore core(config);
   const map::OccupancyMap occupancy = asPublished(map::loadMap(map_yaml));
   for (StaticLayer* layer : core.globalCostmap().layersOfType<StaticLayer>()) layer->setMap(occupancy);
-  core.globalCostmap().updateMap(Pose2D{});
+  // No robot stands on the map: the obstacle layer clears the robot's footprint, which at some
+  // pose of the map would open a hole in unknown space there (track_unknown_space: true).
+  core.globalCostmap().updateMap(Pose2D{occupancy.origin_x - 1e6, occupancy.origin_y - 1e6, 0.0});
   const CostGrid& costs = core.globalCostmap().costmap();
   checkPoses(costs, poses, map_yaml);
 
@@ -185,5 +187,23 @@ void marl_mrta_travel_path(const MarlMrtaTravel* travel, int a, int b, double* x
 }
 
 void marl_mrta_travel_free(MarlMrtaTravel* travel) { delete travel; }
+
+int marl_mrta_map_read(const char* map_yaml, signed char* data, int capacity, int* width, int* height, char* error,
+                       int error_size) {
+  using namespace marl_mrta::nav;
+  writeError(error, error_size, "");
+  try {
+    if (!map_yaml) throw std::invalid_argument("the map file must be given");
+    const marl_mrta::map::OccupancyMap map = marl_mrta::map::loadMap(map_yaml);
+    if (width) *width = map.width;
+    if (height) *height = map.height;
+    const int cells = static_cast<int>(map.data.size());
+    if (data && capacity >= cells) std::copy(map.data.begin(), map.data.end(), data);
+    return cells;
+  } catch (const std::exception& problem) {
+    writeError(error, error_size, problem.what());
+  }
+  return -1;
+}
 
 }  // extern "C"

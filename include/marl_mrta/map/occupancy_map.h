@@ -70,8 +70,8 @@ struct MapYaml {
 };
 
 // A map's image as map_server's loader (SDL_image) hands it over: 8-bit samples, row-major, row 0
-// at the top (as stored in the file), `channels` per pixel: 1 (grey), 3 (RGB) or 4 (RGBA; a PNG's
-// grey + alpha arrives as RGBA).
+// at the top (as stored in the file), `channels` per pixel: 1 (grey), 2 (a grey PNG with a
+// transparent grey, tRNS: grey + alpha), 3 (RGB) or 4 (RGBA; a PNG's grey + alpha arrives as RGBA).
 struct MapImage {
   int width = 0;
   int height = 0;
@@ -86,11 +86,12 @@ OccupancyMap loadMap(const std::string& yaml_path);
 MapYaml readMapYaml(const std::string& yaml_path);
 // The image of a map, PGM or PNG by its first bytes. Throws MapError.
 MapImage readMapImage(const std::string& path);
-// Binary (P5) or ASCII (P2) PGM; samples scaled to 0..255 when maxval differs. Throws MapError.
+// Binary (P5) or ASCII (P2) PGM of maxval 1..255, scaled to 0..255 below 255 (SDL_image refuses
+// more bits). Throws MapError.
 MapImage readPgm(const std::string& path);
-// PNG: grey (1-, 2- and 4-bit scaled to 0..255), grey + alpha (as RGBA), RGB, RGBA; 16-bit samples
-// keep their high byte. A palette image is refused (map_server would read its indices as grey
-// values). Throws MapError.
+// PNG: grey (1-, 2- and 4-bit scaled to 0..255; with a tRNS grey, grey + alpha), grey + alpha (as
+// RGBA), RGB, RGBA; 16-bit samples keep their high byte. A palette image is refused (map_server
+// would read its indices as grey values); what libpng refuses is refused. Throws MapError.
 MapImage readPng(const std::string& path);
 // map_server's pixel -> cell conversion (including the bottom-up row order).
 std::vector<int8_t> occupancyFromImage(const MapImage& image, const MapYaml& params);

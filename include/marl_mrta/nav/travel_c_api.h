@@ -35,6 +35,14 @@ void marl_mrta_travel_path(const MarlMrtaTravel* travel, int a, int b, double* x
 
 void marl_mrta_travel_free(MarlMrtaTravel* travel);
 
+/* Reads a map_server map with the C++ reader (src/map/, as the simulator, navigation and the
+ * travel planning read it), so that Python can hold it to its own reader. Returns the number of
+ * cells (width * height) and sets *width and *height; when capacity is at least that, writes the
+ * cells into data (nav_msgs/OccupancyGrid's order: row-major, the lowest row first). On a bad map
+ * returns -1 and writes its one line into `error`. */
+int marl_mrta_map_read(const char* map_yaml, signed char* data, int capacity, int* width, int* height, char* error,
+                       int error_size);
+
 #ifdef __cplusplus
 }
 #endif

@@ -4,7 +4,8 @@ libmarl_mrta_travel.so (src/nav/travel_c_api.cpp, a C ABI) builds move_base's gl
 from the map file and the navigation's parameter files, and plans with the navfn core that
 move_base runs: the embedded travel times come from the planner navigation uses, not from a
 second implementation of it. The library is a product of the package's build; the workspace's
-setup.bash puts its directory on LD_LIBRARY_PATH.
+setup.bash puts its directory on LD_LIBRARY_PATH. read_map_native gives a map's grid as that C++
+side reads it, to hold it to model/occupancy_map.py's reader.
 """
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ from typing import List, NamedTuple, Optional, Sequence, Tuple
 import numpy as np
 
 from marl_mrta.common.config import ConfigError
+from marl_mrta.model.occupancy_map import MapFileError
 
 LIBRARY_NAME = "libmarl_mrta_travel.so"
 _ERROR_SIZE = 1024
@@ -75,6 +77,10 @@ def _load() -> ctypes.CDLL:
     library.marl_mrta_travel_max_speed.argtypes = [ctypes.c_void_p]
     library.marl_mrta_travel_free.restype = None
     library.marl_mrta_travel_free.argtypes = [ctypes.c_void_p]
+    library.marl_mrta_map_read.restype = ctypes.c_int
+    library.marl_mrta_map_read.argtypes = [ctypes.c_char_p, ctypes.POINTER(ctypes.c_byte), ctypes.c_int,
+                                           ctypes.POINTER(ctypes.c_int), ctypes.POINTER(ctypes.c_int),
+                                           ctypes.c_char_p, ctypes.c_int]
     _library = library
     return library
 
@@ -107,3 +113,21 @@ def plan_all_pairs(map_yaml: str, nav_config_dir: str,
         return NavfnPlans(paths, library.marl_mrta_travel_max_speed(handle))
     finally:
         library.marl_mrta_travel_free(handle)
+
+
+def read_map_native(map_yaml: str) -> np.ndarray:
+    """The grid of a map_server map as the C++ reader reads it (the simulator's, navigation's and
+    the travel planning's), int8 (rows, cols) with row 0 the lowest, as OccupancyMap.grid: for
+    holding the two readers to one rule. MapFileError (its one line) on a bad map."""
+    library = _load()
+    error = ctypes.create_string_buffer(_ERROR_SIZE)
+    width, height = ctypes.c_int(0), ctypes.c_int(0)
+    cells = library.marl_mrta_map_read(str(map_yaml).encode(), None, 0, ctypes.byref(width), ctypes.byref(height),
+                                       error, _ERROR_SIZE)
+    if cells >= 0:
+        data = (ctypes.c_byte * max(cells, 1))()
+        cells = library.marl_mrta_map_read(str(map_yaml).encode(), data, cells, ctypes.byref(width),
+                                           ctypes.byref(height), error, _ERROR_SIZE)
+    if cells < 0:
+        raise MapFileError(error.value.decode(errors="replace"))
+    return np.frombuffer(data, dtype=np.int8, count=cells).reshape(height.value, width.value).copy()

@@ -13,12 +13,15 @@ Reading follows map_server (Noetic ``image_loader.cpp``):
   ``255 - p`` when ``negate`` is set; ``occ > occupied_thresh`` -> 100,
   ``occ < free_thresh`` -> 0, otherwise -1 (``scale`` mode: ``1 + 98 * ratio`` in between;
   ``raw`` mode: the pixel value itself, as a signed byte).
-* The image is a PGM (P5 or P2) or a PNG (grey, grey + alpha, RGB or RGBA; 16-bit samples keep
-  their high byte, as map_server's image loader, SDL_image, reads them). In colour, ``p`` is the
-  mean of the channels, alpha included in ``trinary`` mode; in ``scale`` mode a pixel of alpha 0
-  between the thresholds is unknown, and map_server reads an RGB pixel's blue as its alpha. Grey
-  + alpha counts as RGBA. A palette PNG is refused: map_server would read its palette indices as
-  grey values.
+* The image is a PGM (P5 or P2, maxval up to 255, a smaller one scaled to 0..255) or a PNG
+  (grey, grey + alpha, RGB or RGBA; 16-bit samples keep their high byte), as map_server's image
+  loader, SDL_image over libpng, hands them over. In colour, ``p`` is the mean of the channels,
+  alpha included in ``trinary`` mode; in ``scale`` mode a pixel of alpha 0 between the
+  thresholds is unknown, and map_server reads an RGB pixel's blue as its alpha. Grey + alpha
+  counts as RGBA; a grey PNG's transparent grey (tRNS) becomes an alpha channel, averaged in. A
+  palette PNG is refused: map_server would read its palette indices as grey values. A file
+  libpng refuses (a critical chunk with a bad CRC, cut short) is refused.
+* ``scale`` mode with equal thresholds gives a pixel exactly on them 0, as map_server does.
 * Grid row 0 is the BOTTOM row of the image, so ``grid[row, col]`` has y growing with row,
   the layout of ``nav_msgs/OccupancyGrid.data`` (index ``row * width + col``).
 
@@ -32,7 +35,10 @@ Example::
 """
 from __future__ import annotations
 
+import io
 import math
+import struct
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import NamedTuple, Optional, Tuple, Union
@@ -188,8 +194,7 @@ def load_map(yaml_path: PathLike) -> OccupancyMap:
                            f"<= occupied_thresh <= 1, got {free_thresh}/{occupied_thresh}")
     mode = config.get("mode", "trinary")
     if mode not in MAP_MODES:
-        raise MapFileError(f"{yaml_path}: mode: must be one of {', '.join(MAP_MODES)}, "
-                           f"got {mode!r}")
+        raise MapFileError(f"{yaml_path}: mode: '{mode}' is not one of {', '.join(MAP_MODES)}")
     if not isinstance(config["image"], str) or not config["image"]:
         raise MapFileError(f"{yaml_path}: image: must be a file name")
 
@@ -223,8 +228,11 @@ def pixels_to_grid(pixels: np.ndarray, negate: bool, occupied_thresh: float,
     occ = (255.0 - values) / 255.0
     grid = np.full(values.shape, UNKNOWN, dtype=np.int8)
     if mode == "scale":
-        ratio = (occ - free_thresh) / max(occupied_thresh - free_thresh, 1e-12)
-        grid = (1 + 98 * np.clip(ratio, 0.0, 1.0)).astype(np.int8)
+        if occupied_thresh > free_thresh:
+            ratio = (occ - free_thresh) / (occupied_thresh - free_thresh)
+            grid = (1 + 98 * np.clip(ratio, 0.0, 1.0)).astype(np.int8)
+        else:   # equal thresholds, occ on them: map_server's 0/0 ratio, which x86 turns into 0
+            grid = np.full(values.shape, FREE, dtype=np.int8)
         if alpha is not None:
             grid[alpha < 1] = UNKNOWN
     grid[occ > occupied_thresh] = OCCUPIED
@@ -247,76 +255,155 @@ def read_image(path: PathLike) -> np.ndarray:
     return read_png(path) if magic == PNG_SIGNATURE else read_pgm(path)
 
 
-#: PIL's modes of a PNG -> how map_server's loader (SDL_image) hands the pixels over.
-_PNG_MODES = {"1": "grey", "L": "grey", "I": "grey16", "I;16": "grey16", "I;16B": "grey16",
-              "LA": "grey_alpha", "RGB": "colour", "RGBA": "colour"}
+class _PngChunks(NamedTuple):
+    width: int
+    height: int
+    bit_depth: int
+    colour_type: int
+    stream: bytes            # the chunks libpng would read, rebuilt for Pillow
+    transparent_grey: Optional[int]   # a grey image's tRNS sample, masked to its bit depth
+
+
+#: libpng's default limit on a PNG's width and height (PNG_USER_WIDTH_MAX, PNG_USER_HEIGHT_MAX).
+_PNG_SIDE_MAX = 1_000_000
+
+
+def _valid_png_header(width, height, bit_depth, colour_type, compression, filtering, interlace) -> bool:
+    """libpng's png_check_IHDR."""
+    depths = {0: (1, 2, 4, 8, 16), 2: (8, 16), 3: (1, 2, 4, 8), 4: (8, 16), 6: (8, 16)}
+    return (0 < width <= _PNG_SIDE_MAX and 0 < height <= _PNG_SIDE_MAX and bit_depth in depths.get(colour_type, ())
+            and compression == 0 and filtering == 0 and interlace in (0, 1))
+
+
+def _png_chunks(path: Path, data: bytes) -> _PngChunks:
+    """The chunks map_server's loader (SDL_image over libpng) reads, checked as libpng checks them:
+    a critical chunk (IHDR, PLTE, IDAT) with a bad CRC or cut short is an error; an ancillary one
+    with a bad CRC is dropped; nothing after the image data is read (not even IEND). Pillow gets
+    only these chunks, so that it reads what libpng reads."""
+    pos, kept, idat, header, trns = len(PNG_SIGNATURE), [], [], None, None
+    while pos + 8 <= len(data):
+        length, kind = struct.unpack(">I", data[pos:pos + 4])[0], data[pos + 4:pos + 8]
+        name = kind.decode("latin-1")
+        if (idat and kind != b"IDAT") or kind == b"IEND":
+            break                              # past the image data: libpng reads no further
+        end = pos + 12 + length
+        if end > len(data):
+            raise MapFileError(f"{path}: PNG: file truncated")
+        body = data[pos + 8:pos + 8 + length]
+        if zlib.crc32(kind + body) != struct.unpack(">I", data[end - 4:end])[0]:
+            if kind[:1].isupper():
+                raise MapFileError(f"{path}: PNG: {name}: CRC error")
+            pos = end
+            continue
+        if header is None and kind != b"IHDR":
+            raise MapFileError(f"{path}: PNG: IHDR: missing (the first chunk is {name})")
+        if kind == b"IHDR":
+            if length != 13 or not _valid_png_header(*struct.unpack(">IIBBBBB", body)):
+                raise MapFileError(f"{path}: PNG: Invalid IHDR data")   # libpng's words
+            header = struct.unpack(">IIBB", body[:10])
+        elif kind == b"IDAT":
+            idat.append(body)
+        elif kind == b"tRNS":
+            trns = body
+        if kind in (b"IHDR", b"PLTE", b"IDAT", b"tRNS"):
+            kept.append(data[pos:end])
+        pos = end
+    if header is None or (not idat and pos + 8 > len(data)):
+        raise MapFileError(f"{path}: PNG: file truncated")
+    if not idat:
+        raise MapFileError(f"{path}: PNG: no image data (IDAT chunk)")
+    width, height, bit_depth, colour_type = header
+    transparent = None
+    if colour_type == 0 and trns is not None and len(trns) == 2:
+        # libpng compares the sample at the image's bit depth, the tRNS value masked to it.
+        transparent = struct.unpack(">H", trns)[0] & ((1 << bit_depth) - 1)
+    iend = struct.pack(">I", 0) + b"IEND" + struct.pack(">I", zlib.crc32(b"IEND"))
+    return _PngChunks(width, height, bit_depth, colour_type, PNG_SIGNATURE + b"".join(kept) + iend, transparent)
 
 
 def read_png(path: PathLike) -> np.ndarray:
-    """Read a PNG as map_server's loader does: grey (1-, 2- and 4-bit scaled to 0..255, 16-bit to
-    its high byte) as (rows, cols); RGB and RGBA as (rows, cols, 3 or 4); grey + alpha as RGBA.
-    Refuses palette images and images of more than MAX_MAP_CELLS cells (from the header)."""
+    """Read a PNG as map_server's loader (SDL_image) hands it over: grey (1-, 2- and 4-bit scaled
+    to 0..255, 16-bit to its high byte) as (rows, cols), or (rows, cols, 2) grey + alpha where a
+    tRNS chunk names a transparent grey; RGB and RGBA as (rows, cols, 3 or 4); grey + alpha as
+    RGBA. Refuses palette images, images of more than MAX_MAP_CELLS cells (from the header) and
+    files libpng refuses."""
     from PIL import Image   # Pillow: only maps in PNG need it
 
     path = Path(path)
     try:
-        image = Image.open(path)
-    except (OSError, SyntaxError, ValueError) as err:
-        raise MapFileError(f"{path}: PNG: {err}") from None
-    with image:
-        width, height = image.size
-        if width * height > MAX_MAP_CELLS:
-            raise MapFileError(f"{path}: PNG header: {width} x {height} = {width * height} cells, more than "
-                               f"the {MAX_MAP_CELLS} a map may have (a 250 m square at 0.05 m)")
-        if image.mode == "P":
-            raise MapFileError(f"{path}: PNG: a palette image; map_server reads its palette indices as grey "
-                               f"values, not its colours: save the map as greyscale or RGB")
-        kind = _PNG_MODES.get(image.mode)
-        if kind is None:
-            raise MapFileError(f"{path}: PNG: pixel format {image.mode} is not grey, grey + alpha, RGB or RGBA")
-        try:   # the pixels are decoded here
-            if kind == "grey":
-                return np.asarray(image.convert("L"), dtype=np.uint8).copy()
-            if kind == "grey16":
-                return (np.asarray(image, dtype=np.int64) >> 8).astype(np.uint8)
-            pixels = np.asarray(image, dtype=np.uint8)
-        except (OSError, SyntaxError, ValueError) as err:
-            raise MapFileError(f"{path}: PNG: {err}") from None
-    if kind == "grey_alpha":   # SDL_image turns grey + alpha into RGBA
-        return np.concatenate([pixels[..., :1]] * 3 + [pixels[..., 1:]], axis=2)
-    return pixels.copy()
+        data = path.read_bytes()
+    except OSError as err:
+        raise MapFileError(f"{path}: image: cannot read ({err.strerror})") from None
+    png = _png_chunks(path, data)
+    if png.width * png.height > MAX_MAP_CELLS:
+        raise MapFileError(f"{path}: PNG header: {png.width} x {png.height} = {png.width * png.height} cells, more "
+                           f"than the {MAX_MAP_CELLS} a map may have (a 250 m square at 0.05 m)")
+    if png.colour_type == 3:
+        raise MapFileError(f"{path}: PNG: a palette image; map_server reads its palette indices as grey "
+                           f"values, not its colours: save the map as greyscale or RGB")
+    stream = io.BytesIO(png.stream)
+    try:   # the pixels are decoded here
+        with Image.open(stream) as image:
+            if png.colour_type != 0:
+                pixels = np.asarray(image, dtype=np.uint8)
+                if pixels.shape[2] == 2:   # SDL_image turns grey + alpha into RGBA (Pillow: 8-bit only)
+                    return np.concatenate([pixels[..., :1]] * 3 + [pixels[..., 1:]], axis=2)
+                return pixels.copy()
+            if png.bit_depth == 16:
+                samples = np.asarray(image, dtype=np.int64)
+                grey = (samples >> 8).astype(np.uint8)
+            else:
+                grey = np.asarray(image.convert("L"), dtype=np.uint8).copy()
+                samples = grey // (255 // ((1 << png.bit_depth) - 1))   # back to the file's samples
+    except (OSError, SyntaxError, ValueError, zlib.error) as err:
+        raise MapFileError(f"{path}: PNG: {str(err).replace(repr(stream), repr(str(path)))}") from None
+    if png.transparent_grey is None:
+        return grey
+    # libpng's expansion of a grey tRNS: an alpha channel, 0 on that grey, 255 elsewhere.
+    alpha = np.where(samples == png.transparent_grey, 0, 255).astype(np.uint8)
+    return np.stack([grey, alpha], axis=2)
 
 
 def read_pgm(path: PathLike) -> np.ndarray:
-    """Read a binary (P5) or plain (P2) 8-bit PGM; returns uint8 (rows, cols), row 0 = top."""
+    """Read a binary (P5) or plain (P2) PGM of up to 8 bits; returns uint8 (rows, cols), row 0 =
+    top. As map_server's loader (SDL_image): a maxval below 255 scales the samples to 0..255
+    (sample * 255 // maxval, kept to a byte); a larger maxval is refused."""
     path = Path(path)
     try:
         with path.open("rb") as image:
             head = image.read(_HEADER_BYTES)
             (magic, width, height, maxval), offset = _pgm_header(path, head)
+            if not 1 <= maxval <= 255:
+                raise MapFileError(f"{path}: PGM header: maxval {maxval}: map_server reads PGMs of 8 bits or "
+                                   f"fewer (maxval 1 to 255)")
             if width * height > MAX_MAP_CELLS:
                 raise MapFileError(f"{path}: PGM header: {width} x {height} = {width * height} cells, more than "
                                    f"the {MAX_MAP_CELLS} a map may have (a 250 m square at 0.05 m)")
             data = head + image.read()
     except OSError as err:
         raise MapFileError(f"{path}: image: cannot read ({err.strerror})") from None
-    if maxval != 255:
-        raise MapFileError(f"{path}: PGM header: only 8-bit images (maxval 255), got {maxval}")
     if magic == b"P5":
         body = data[offset:offset + width * height]
         if len(body) != width * height:
             raise MapFileError(f"{path}: PGM data: expected {width * height} bytes, "
                                f"got {len(body)}")
-        return np.frombuffer(body, dtype=np.uint8).reshape(height, width).copy()
-    try:
-        values = [int(token) for token in _strip_comments(data[offset:]).split()]
-    except ValueError:
-        raise MapFileError(f"{path}: PGM data: non-numeric pixel value") from None
-    if len(values) != width * height or not all(0 <= v <= 255 for v in values):
-        raise MapFileError(f"{path}: PGM data: expected {width * height} values in 0..255")
-    return np.array(values, dtype=np.uint8).reshape(height, width)
+        samples = np.frombuffer(body, dtype=np.uint8).reshape(height, width).astype(np.int64)
+    else:
+        try:
+            values = [int(token) for token in _strip_comments(data[offset:]).split()]
+        except ValueError:
+            raise MapFileError(f"{path}: PGM data: non-numeric pixel value") from None
+        if len(values) != width * height or not all(0 <= v <= maxval for v in values):
+            raise MapFileError(f"{path}: PGM data: expected {width * height} values in 0..{maxval}")
+        samples = np.array(values, dtype=np.int64).reshape(height, width)
+    if maxval < 255:
+        # SDL_image's scaling, into a byte (a P5 sample above maxval wraps, as it does there).
+        samples = samples * 255 // maxval
+    return (samples & 0xFF).astype(np.uint8)
 
 
+#: The widest and tallest PGM either reader takes (a side of more cells than a map may have).
+_PGM_SIDE_MAX = 1 << 20
 #: Bytes read for the header before the image's size is checked (comments included).
 _HEADER_BYTES = 65536
 
@@ -339,14 +426,16 @@ def _pgm_header(path: Path, data: bytes):
             raise MapFileError(f"{path}: PGM header: truncated")
         tokens.append(data[start:pos])
         if tokens[0] not in (b"P5", b"P2"):
-            raise MapFileError(f"{path}: PGM header: not a PGM or PNG image (magic "
-                               f"{tokens[0][:8]!r}, expected P5 or P2, or a PNG)")
+            found = "".join(chr(b) if 0x20 <= b < 0x7F else f"\\x{b:02x}" for b in data[:2])
+            raise MapFileError(f"{path}: PGM header: not a PGM or PNG file (expected magic P5 or P2, or a PNG, "
+                               f"found '{found}')")
     try:
         width, height, maxval = (int(token) for token in tokens[1:])
     except ValueError:
         raise MapFileError(f"{path}: PGM header: non-numeric size or maxval") from None
-    if width <= 0 or height <= 0:
-        raise MapFileError(f"{path}: PGM header: empty image {width} x {height}")
+    for side, value in (("width", width), ("height", height)):
+        if not 1 <= value <= _PGM_SIDE_MAX:
+            raise MapFileError(f"{path}: PGM header: {side} {value} out of range [1, {_PGM_SIDE_MAX}]")
     # Exactly one whitespace byte separates the header from binary data.
     return (tokens[0], width, height, maxval), pos + 1
 

@@ -12,8 +12,8 @@
    the first segment alone runs to a cell's corner and its direction is a cell's noise.
 
 Nodes: the robots' start poses first (node r = robot r), then the task goals (node n_robots + j).
-Tables are cached per (map file, poses, parameters) so environments built on the same
-scenario share one computation.
+Tables are cached per (map and navigation file states, poses, parameters) so environments
+built on the same scenario share one computation.
 """
 from __future__ import annotations
 
@@ -26,6 +26,7 @@ from typing import Dict, List, Sequence, Tuple
 import numpy as np
 
 from marl_mrta.common.config import ConfigError
+from marl_mrta.common.yaml_file import YamlFileError, load_yaml_file
 from marl_mrta.model.navfn_paths import PlanningError, plan_all_pairs
 from marl_mrta.model.scenario import Scenario, ScenarioError
 
@@ -123,10 +124,34 @@ def build_travel_table(map_path: str, poses: Sequence[Tuple[float, float, float]
 _CACHE: Dict[tuple, TravelTable] = {}
 
 
+def _file_states(map_path: str, nav_config_dir: str) -> tuple:
+    """What the table is planned from, as file states: the map's YAML and image and the
+    navigation's parameter files, so that an edited file (a track_unknown_space set, an image
+    saved again) is planned anew."""
+    paths = [map_path]
+    try:
+        image = load_yaml_file(map_path).get("image")
+        if isinstance(image, str) and image:
+            paths.append(os.path.join(os.path.dirname(map_path), image))
+    except (YamlFileError, AttributeError):
+        pass   # the planner reports a bad map file
+    if os.path.isdir(nav_config_dir):
+        paths += sorted(os.path.join(nav_config_dir, name) for name in os.listdir(nav_config_dir))
+    states = []
+    for path in paths:
+        try:
+            stat = os.stat(path)
+            states.append((os.path.realpath(path), stat.st_mtime_ns, stat.st_size))
+        except OSError:
+            states.append((path, None, None))
+    return tuple(states)
+
+
 def cached_travel_table(map_path: str, poses: Sequence[Tuple[float, float, float]], model: TravelModel) -> TravelTable:
-    """build_travel_table, computed once per (map file state, poses, model) in this process."""
-    stat = os.stat(map_path)
-    key = (os.path.realpath(map_path), stat.st_mtime_ns, stat.st_size,
+    """build_travel_table, computed once per (map and navigation file states, poses, model) in this
+    process."""
+    os.stat(map_path)   # a missing map file is an OSError here, as before
+    key = (os.path.realpath(map_path), _file_states(map_path, model.nav_config_dir),
            tuple(tuple(float(v) for v in pose) for pose in poses), astuple(model))
     table = _CACHE.get(key)
     if table is None:

@@ -157,6 +157,55 @@ TEST(NavParams, OldDwaNamesAreReadWhenTheNewOnesAreAbsent) {
   EXPECT_TRUE(ns.unreadKeys().empty()) << joined(ns.unreadKeys());
 }
 
+// The keys Costmap2DROS copies from a costmap into its layers (track_unknown_space, the
+// inflation and range parameters) take the costmap's value over the layer's own, in either style.
+// Unset, the static layer keeps the map's unknown cells unknown (its default) and the obstacle
+// layer does not track unknown space (the costmap's default), as in costmap_2d.
+TEST(NavParams, TheCostmapsOwnValuesReachItsLayers) {
+  YAML::Node tb3(YAML::NodeType::Map);
+  loadYamlFileInto(tb3, kSourceDir + "/config/nav/costmap_common_params_burger.yaml", "global_costmap");
+  loadYamlFileInto(tb3, kSourceDir + "/config/nav/global_costmap_params.yaml", "");
+  const CostmapConfig unset = readMoveBaseConfig(ParamNode(tb3, "move_base")).global_costmap;
+  ASSERT_EQ(3u, unset.layers.size());
+  EXPECT_FALSE(unset.track_unknown_space);
+  EXPECT_TRUE(unset.layers[0].static_layer.track_unknown_space);
+  EXPECT_FALSE(unset.layers[1].obstacle_layer.track_unknown_space);
+
+  setParam(tb3, "global_costmap/track_unknown_space", YAML::Node(true));
+  setParam(tb3, "global_costmap/static_layer/track_unknown_space", YAML::Node(false));  // the costmap's wins
+  const ParamNode pre_hydro_ns(tb3, "move_base");
+  const CostmapConfig pre_hydro = readMoveBaseConfig(pre_hydro_ns).global_costmap;
+  EXPECT_TRUE(pre_hydro.track_unknown_space);
+  EXPECT_TRUE(pre_hydro.layers[0].static_layer.track_unknown_space);
+  EXPECT_TRUE(pre_hydro.layers[1].obstacle_layer.track_unknown_space);
+  EXPECT_TRUE(pre_hydro_ns.unreadKeys().empty()) << joined(pre_hydro_ns.unreadKeys());
+
+  YAML::Node plugins(YAML::NodeType::Map);
+  setParam(plugins, "global_costmap/plugins",
+           YAML::Load("[{name: map, type: 'costmap_2d::StaticLayer'}, {name: obstacles, type: 'costmap_2d::ObstacleLayer'},"
+                      " {name: inflation, type: 'costmap_2d::InflationLayer'}]"));
+  setParam(plugins, "global_costmap/obstacles/observation_sources", YAML::Node("scan"));
+  setParam(plugins, "global_costmap/obstacles/scan/data_type", YAML::Node("LaserScan"));
+  const CostmapConfig plugins_unset = readMoveBaseConfig(ParamNode(plugins, "move_base")).global_costmap;
+  EXPECT_TRUE(plugins_unset.layers[0].static_layer.track_unknown_space);
+  EXPECT_FALSE(plugins_unset.layers[1].obstacle_layer.track_unknown_space);
+
+  setParam(plugins, "global_costmap/track_unknown_space", YAML::Node(true));
+  setParam(plugins, "global_costmap/obstacles/track_unknown_space", YAML::Node(false));
+  setParam(plugins, "global_costmap/inflation_radius", YAML::Node(0.3));
+  setParam(plugins, "global_costmap/inflation/inflation_radius", YAML::Node(0.9));
+  setParam(plugins, "global_costmap/obstacle_range", YAML::Node(2.0));
+  setParam(plugins, "global_costmap/obstacles/obstacle_range", YAML::Node(4.0));
+  const ParamNode plugins_ns(plugins, "move_base");
+  const CostmapConfig copied = readMoveBaseConfig(plugins_ns).global_costmap;
+  EXPECT_TRUE(copied.layers[0].static_layer.track_unknown_space);
+  EXPECT_TRUE(copied.layers[1].obstacle_layer.track_unknown_space);
+  EXPECT_DOUBLE_EQ(0.3, copied.layers[2].inflation_layer.inflation_radius);
+  ASSERT_EQ(1u, copied.layers[1].obstacle_layer.sources.size());
+  EXPECT_DOUBLE_EQ(2.0, copied.layers[1].obstacle_layer.sources[0].obstacle_range);
+  EXPECT_TRUE(plugins_ns.unreadKeys().empty()) << joined(plugins_ns.unreadKeys());
+}
+
 TEST(NavParams, UnknownParametersAreReported) {
   YAML::Node tree(YAML::NodeType::Map);
   setParam(tree, "DWAPlannerROS/max_vel_xx", YAML::Node(0.3));

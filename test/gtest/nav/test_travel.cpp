@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <memory>
 #include <string>
@@ -66,19 +67,20 @@ std::unique_ptr<MoveBaseCore> moveBaseOnLab() {
   return core;
 }
 
-// A map_server map written to a temporary directory: `rows` top first, '#' occupied, '.' free.
+// A map_server map written to a temporary directory: `rows` top first, '#' occupied, '.' free,
+// '?' unknown; the map's lower-left corner at `origin`.
 class TemporaryMap {
  public:
-  explicit TemporaryMap(const std::vector<std::string>& rows) {
+  explicit TemporaryMap(const std::vector<std::string>& rows, const std::string& origin = "[0.0, 0.0, 0.0]") {
     char pattern[] = "/tmp/marl_mrta_travel_XXXXXX";
     dir_ = mkdtemp(pattern);
     std::ofstream pgm(dir_ + "/map.pgm", std::ios::binary);
     pgm << "P5\n" << rows.front().size() << " " << rows.size() << "\n255\n";
     for (const std::string& row : rows) {
-      for (char c : row) pgm.put(static_cast<char>(c == '#' ? 0 : 254));
+      for (char c : row) pgm.put(static_cast<char>(c == '#' ? 0 : c == '?' ? 205 : 254));
     }
     std::ofstream yaml(dir_ + "/map.yaml");
-    yaml << "image: map.pgm\nresolution: 0.05\norigin: [0.0, 0.0, 0.0]\nnegate: 0\n"
+    yaml << "image: map.pgm\nresolution: 0.05\norigin: " << origin << "\nnegate: 0\n"
          << "occupied_thresh: 0.65\nfree_thresh: 0.196\n";
   }
   ~TemporaryMap() {
@@ -208,4 +210,86 @@ TEST(Travel, MapAndParameterErrorsReportNoPose) {
   EXPECT_EQ(nullptr, marl_mrta_travel_plan(kLab.c_str(), "/nonexistent", 0, nullptr, error, sizeof error, &failed_node));
   EXPECT_EQ(15u, std::string(error).size());
   EXPECT_EQ(-1, failed_node);
+}
+
+namespace {
+
+// config/nav copied to a temporary directory, with lines added to two of its files.
+class NavigationCopy {
+ public:
+  NavigationCopy(const std::string& costmap_lines, const std::string& navfn_lines) {
+    char pattern[] = "/tmp/marl_mrta_nav_XXXXXX";
+    dir_ = mkdtemp(pattern);
+    for (const auto& entry : std::filesystem::directory_iterator(kNavConfig)) {
+      std::filesystem::copy_file(entry.path(), dir_ / entry.path().filename());
+    }
+    std::ofstream(dir_ / "costmap_common_params_burger.yaml", std::ios::app) << "\n" << costmap_lines;
+    std::ofstream(dir_ / "navfn_params.yaml", std::ios::app) << "\n" << navfn_lines;
+  }
+  ~NavigationCopy() { std::filesystem::remove_all(dir_); }
+  std::string dir() const { return dir_.string(); }
+
+ private:
+  std::filesystem::path dir_;
+};
+
+// A 6 m x 4 m room; across its middle a band of unknown cells 0.15 m wide (narrower than the
+// Burger's footprint) from the floor to 2.4 m, free above.
+std::vector<std::string> roomWithUnknownBand() {
+  std::vector<std::string> rows(80, std::string(120, '.'));
+  for (int y = 0; y < 80; ++y) {
+    for (int x = 0; x < 120; ++x) {
+      if (x == 0 || y == 0 || x == 119 || y == 79) {
+        rows[79 - y][x] = '#';
+      } else if (y < 48 && x >= 59 && x < 62) {
+        rows[79 - y][x] = '?';
+      }
+    }
+  }
+  return rows;
+}
+
+}  // namespace
+
+// Unknown space is what move_base's global costmap makes of it, with the navigation's files:
+// TurtleBot3's (track_unknown_space unset) free, so the travel path crosses the band; with
+// track_unknown_space: true and navfn's allow_unknown false an obstacle, so it goes round. Each
+// path is move_base's own plan from the robot standing at the start. The map's origin puts the
+// world's (0, 0) in the band, where no robot stands: no footprint is cleared into it.
+TEST(Travel, UnknownSpaceIsWhatMoveBasesCostmapMakesOfIt) {
+  const TemporaryMap map(roomWithUnknownBand(), "[-3.0, -1.6, 0.0]");
+  const std::vector<double> poses = {-2.0, 0.0, 0.0, 2.0, 0.0, 0.0};
+  const NavigationCopy as_shipped("", "");
+  const NavigationCopy tracked("track_unknown_space: true\n", "NavfnROS:\n  allow_unknown: false\n");
+  double length_as_shipped = 0.0;
+  for (const NavigationCopy* navigation : {&as_shipped, &tracked}) {
+    const Planned planned = plan(map.yaml(), navigation->dir(), poses);
+    ASSERT_NE(nullptr, planned.travel) << planned.error;
+    MoveBaseCore core(readMoveBaseConfig(ParamNode(loadMoveBaseParams(navigation->dir()), "move_base")));
+    marl_mrta::map::OccupancyMap occupancy = marl_mrta::map::loadMap(map.yaml());
+    occupancy.resolution = static_cast<float>(occupancy.resolution);
+    core.globalCostmap().layersOfType<StaticLayer>().front()->setMap(occupancy);
+    const Pose2D start{poses[0], poses[1], poses[2]}, goal{poses[3], poses[4], poses[5]};
+    core.globalCostmap().updateMap(start);
+    const PlanResult expected = core.planner().makePlan(core.globalCostmap().costmap(), start, goal);
+    ASSERT_TRUE(expected.ok()) << expected.message;
+    const std::vector<double> xy = pathOf(planned.travel, 0, 1);
+    ASSERT_EQ(2 * expected.path.size(), xy.size());
+    int unknown_points = 0;
+    for (size_t k = 0; k < expected.path.size(); ++k) {
+      ASSERT_EQ(expected.path[k].x, xy[2 * k]) << "point " << k;
+      ASSERT_EQ(expected.path[k].y, xy[2 * k + 1]) << "point " << k;
+      int cx, cy;
+      if (occupancy.worldToCell(xy[2 * k], xy[2 * k + 1], cx, cy) && occupancy.at(cx, cy) == -1) ++unknown_points;
+    }
+    if (navigation == &as_shipped) {
+      EXPECT_GT(unknown_points, 0) << "TurtleBot3's costmap leaves unknown cells free: the path crosses the band";
+      length_as_shipped = lengthOf(xy);
+      EXPECT_LT(length_as_shipped, 4.1);
+    } else {
+      EXPECT_EQ(0, unknown_points) << "tracked unknown space is an obstacle to navfn without allow_unknown";
+      EXPECT_GT(lengthOf(xy), length_as_shipped + 0.3);
+    }
+    marl_mrta_travel_free(planned.travel);
+  }
 }
