@@ -158,7 +158,7 @@ def with_episode(tmp_path, source: Path, attributes: str, name: str = "floor.xml
 
 
 def test_the_scenarios_goal_timeout_wins_over_the_files_and_a_command_lines_over_both(tmp_path):
-    plain = make_env(LAB_2R)
+    plain = make_env(with_episode(tmp_path, LAB_2R, 'timeout="120"', "plain.xml"))
     assert plain.settings.goal_timeout == load_task_settings().goal_timeout and plain.scenario.goal_timeout == AUTO
     path = with_episode(tmp_path, LAB_2R, 'timeout="120" goal_timeout="45"')
     assert load_scenario(path).goal_timeout == 45.0

@@ -37,6 +37,13 @@ class SchedulingInstance:
     and the margin is not needed. Every plan of the paper's rules keeps its makespan under it.
     decision_mode: synchronous (the step rules) or event (robots take the next task of their route
     when they come free and wait at a task for its predecessors: baselines/plan.py).
+
+    A live fleet (event mode only, baselines/replan.py) plans from the fleet as it stands, in the
+    episode's absolute time: robot_ready, when each robot is free on its node (empty: all at 0);
+    task_release, the earliest service start of each task (empty: 0); robot_deadline, by when
+    each robot's tasks must be finished (a robot known to leave then; empty: never); first_task,
+    the task a robot is already committed to (driving to, holding at or serving), its route's
+    first (empty or None: none).
     """
 
     n_robots: int
@@ -50,11 +57,35 @@ class SchedulingInstance:
     precedence_margin: float = 0.0              # s
     hold_successors: bool = False
     decision_mode: str = "synchronous"
+    robot_ready: Tuple[float, ...] = ()
+    task_release: Tuple[float, ...] = ()
+    robot_deadline: Tuple[float, ...] = ()
+    first_task: Tuple[Optional[int], ...] = ()
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "travel_rows", np.asarray(self.travel, dtype=float).tolist())
         if not self.task_ids:
             object.__setattr__(self, "task_ids", tuple(f"T{j}" for j in range(self.n_tasks)))
+        if self.live and self.decision_mode != "event":
+            raise ValueError("ready times, releases, deadlines and committed tasks are of event mode's plans")
+
+    @property
+    def live(self) -> bool:
+        """The instance carries a live fleet's state (ready times, releases, deadlines, commitments)."""
+        return bool(self.robot_ready or self.task_release or self.robot_deadline
+                    or any(t is not None for t in self.first_task))
+
+    def ready_time(self, robot: int) -> float:
+        return self.robot_ready[robot] if self.robot_ready else 0.0
+
+    def release(self, task: int) -> float:
+        return self.task_release[task] if self.task_release else 0.0
+
+    def deadline(self, robot: int) -> float:
+        return self.robot_deadline[robot] if self.robot_deadline else math.inf
+
+    def committed(self, robot: int) -> Optional[int]:
+        return self.first_task[robot] if self.first_task else None
 
     def node(self, task: int) -> int:
         return self.n_robots + task
@@ -343,10 +374,26 @@ class EventRun:
     violations: int = 0                  # never out of order: robots wait for predecessors
 
 
+def committed_first(instance: SchedulingInstance, routes: Sequence[Sequence[int]]) -> List[List[int]]:
+    """The routes with each robot's committed task (a live fleet's) first on its own route and on
+    no other: a robot cannot be planned away from what it is already doing."""
+    committed = {instance.committed(r): r for r in range(instance.n_robots) if instance.committed(r) is not None}
+    if not committed:
+        return [list(route) for route in routes]
+    fixed = [[t for t in route if t not in committed] for route in routes]
+    for task, robot in committed.items():
+        fixed[robot].insert(0, task)
+    return fixed
+
+
 def decode_routes(instance: SchedulingInstance, routes: Sequence[Sequence[int]]) -> EventRun:
-    """The earliest-start schedule of `routes` (each task in at most one route)."""
+    """The earliest-start schedule of `routes` (each task in at most one route); in a live fleet
+    from each robot's ready time, no service before its task's release, and incomplete when a
+    robot would finish a task after its deadline."""
     n_t = instance.n_tasks
     rows = instance.travel_rows
+    if instance.live:
+        routes = committed_first(instance, routes)
     route_of: List[Optional[int]] = [None] * n_t
     before: List[Optional[int]] = [None] * n_t      # the previous task on its route
     for robot, route in enumerate(routes):
@@ -371,9 +418,11 @@ def decode_routes(instance: SchedulingInstance, routes: Sequence[Sequence[int]])
             leg = rows[node][instance.node(task)]
             if leg > instance.goal_timeout:
                 return EventRun(instance, lists, math.inf, False, arrival, start, finish)
-            arrival[task] = (finish[prev] if prev is not None else 0.0) + leg
-            start[task] = max([arrival[task]] + [finish[p] for p in instance.predecessors[task]])
+            arrival[task] = (finish[prev] if prev is not None else instance.ready_time(robot)) + leg
+            start[task] = max([arrival[task], instance.release(task)] + [finish[p] for p in instance.predecessors[task]])
             finish[task] = start[task] + instance.service[task]
+            if finish[task] > instance.deadline(robot) + 1e-9:   # the robot has left by then
+                return EventRun(instance, lists, math.inf, False, arrival, start, finish)
             progressed = True
         if not progressed:   # routes that wait on each other: a deadlock
             return EventRun(instance, lists, math.inf, False, arrival, start, finish)

@@ -78,7 +78,8 @@ def arc_count(instance: SchedulingInstance) -> int:
 def solve_relaxation(instance: SchedulingInstance, budget: CpSatBudget, kind: str = "asynchronous",
                      hint: Optional[Plan] = None, upper_bound: Optional[float] = None,
                      known_lower_bound: float = 0.0, makespan_cap: Optional[float] = None,
-                     scale: TimeScale = BOUND_TIME, direct_legs: bool = False) -> RelaxationResult:
+                     scale: TimeScale = BOUND_TIME, direct_legs: bool = False,
+                     least_finishes: bool = False) -> RelaxationResult:
     """One relaxation within the budget; `hint` (a complete plan) gives its first solution,
     known_lower_bound (a bound already proven, e.g. the asynchronous one) its least makespan.
 
@@ -90,11 +91,15 @@ def solve_relaxation(instance: SchedulingInstance, budget: CpSatBudget, kind: st
     found gives its routes and its makespan as `optimum` (the relaxation's optimum is at most
     that), and no bound. With `direct_legs` (asynchronous only) legs are the direct ones within
     the goal timeout, not the quickest chains over other goals: event mode's own schedule
-    (plan.py), of which the optimum is then exact, not a relaxation."""
+    (plan.py), of which the optimum is then exact, not a relaxation. With `least_finishes` (and a
+    cap) the schedule within the cap of the least sum of finish times: a live fleet's plan then
+    leaves no task waiting that could be done sooner (baselines/replan.py)."""
     if kind not in KINDS:
         raise ValueError(f"relaxation kind {kind!r} is not one of {', '.join(KINDS)}")
     if kind != "asynchronous" and scale != BOUND_TIME:
         raise ValueError("only the asynchronous relaxation takes another time scale")
+    if instance.live and not direct_legs:
+        raise ValueError("a live fleet's instance is planned with the asynchronous model over direct legs")
     cap = scale.floor(makespan_cap) if makespan_cap is not None else None
     if cap is not None:
         # Only plans shorter than cap + 1 tick matter: the step count and the horizon may use that.
@@ -114,8 +119,12 @@ def solve_relaxation(instance: SchedulingInstance, budget: CpSatBudget, kind: st
         chains = instance.chain_times()
     finite = chains[chains < float("inf")]
     service = [scale.floor(s) for s in instance.service]
+    # A live fleet's times are absolute: robots free later, tasks released later (0 otherwise).
+    ready = [scale.floor(instance.ready_time(r)) for r in range(n_r)]
+    release = [scale.floor(instance.release(j)) for j in range(n_t)]
     horizon = scale.floor(upper_bound) + 1 if upper_bound is not None else \
-        sum(service) + n_t * (scale.floor(float(finite.max())) + scale.floor(instance.min_step)) + 1
+        max(ready + release + [0]) + sum(service) + \
+        n_t * (scale.floor(float(finite.max() if finite.size else 0.0)) + scale.floor(instance.min_step)) + 1
 
     model = cp_model.CpModel()
     arrival = [model.NewIntVar(0, horizon, f"arrival_{j}") for j in range(n_t)]
@@ -136,11 +145,15 @@ def solve_relaxation(instance: SchedulingInstance, budget: CpSatBudget, kind: st
             circuit.append((j + 1, j + 1, skip))
             visits[j].append(skip.Not())
             circuit.append((j + 1, 0, model.NewBoolVar(f"last_{r}_{j}")))
+            if instance.deadline(r) < float("inf"):   # a robot that leaves: its tasks finished before
+                model.Add(arrival[j] + service[j] <= scale.floor(instance.deadline(r))).OnlyEnforceIf(skip.Not())
             first_leg = chains[r, instance.node(j)]
             if first_leg < float("inf"):
                 lit = arc_of[r, -1, j] = model.NewBoolVar(f"first_{r}_{j}")
                 circuit.append((0, j + 1, lit))
-                model.Add(arrival[j] >= scale.floor(float(first_leg))).OnlyEnforceIf(lit)
+                model.Add(arrival[j] >= ready[r] + scale.floor(float(first_leg))).OnlyEnforceIf(lit)
+                if instance.committed(r) == j:
+                    model.Add(lit == 1)
             for i in range(n_t):
                 leg = chains[instance.node(i), instance.node(j)]
                 if i == j or leg == float("inf"):
@@ -157,13 +170,19 @@ def solve_relaxation(instance: SchedulingInstance, budget: CpSatBudget, kind: st
         _departures(model, instance, arrival, steps, arc_of)
     for j in range(n_t):
         model.AddExactlyOne(visits[j])
-        reach = min(chains[r, instance.node(j)] for r in range(n_r))
-        model.Add(arrival[j] >= scale.floor(float(reach)))
+        reach = min(ready[r] + scale.floor(float(chains[r, instance.node(j)])) if chains[r, instance.node(j)] < float("inf")
+                    else horizon for r in range(n_r))
+        model.Add(arrival[j] >= min(max(reach, release[j]), horizon))
         model.Add(makespan >= leave[j])
         for p in instance.predecessors[j]:
             model.Add(arrival[j] >= arrival[p] + service[p])
+    if least_finishes and cap is None:
+        raise ValueError("least_finishes needs a makespan cap")
     if cap is None:
         model.Minimize(makespan)
+    elif least_finishes:
+        model.Add(makespan <= cap)
+        model.Minimize(sum(leave))
     else:
         model.Add(makespan <= cap)
     if hint is not None and hint.complete:
@@ -335,12 +354,15 @@ def _way_there(model: cp_model.CpModel, instance: SchedulingInstance, steps: _St
 
 
 def _hint(model: cp_model.CpModel, arc_of: Dict[tuple, cp_model.IntVar], plan: Plan) -> None:
-    """The plan's finishers' routes as the first solution's arcs."""
-    run = simulate_joint_actions(plan.instance, [])
-    routes: List[List[int]] = [[] for _ in range(plan.instance.n_robots)]
-    for goals in plan.joint_actions:
-        for done in sorted(run.apply(goals).finished, key=lambda f: f.robot):
-            routes[done.robot].append(done.task)
+    """The plan's finishers' routes as the first solution's arcs (an event plan: its routes)."""
+    if plan.instance.decision_mode == "event":
+        routes = [list(route) for route in plan.robot_tasks]
+    else:
+        run = simulate_joint_actions(plan.instance, [])
+        routes = [[] for _ in range(plan.instance.n_robots)]
+        for goals in plan.joint_actions:
+            for done in sorted(run.apply(goals).finished, key=lambda f: f.robot):
+                routes[done.robot].append(done.task)
     chosen = set()
     for r, route in enumerate(routes):
         at = -1

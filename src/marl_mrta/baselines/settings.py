@@ -43,6 +43,16 @@ class LookaheadBudget:
 
 
 @dataclass(frozen=True)
+class ReplanSettings:
+    """A live fleet's re-planning (baselines/replan.py)."""
+    method: str = "cpsat"          # insertion | ga (insertion, then the GA) | cpsat (both, then CP-SAT)
+    time_limit: float = 2.0        # s of CP-SAT deterministic time per plan
+    ga_evaluations: int = 3000     # decoded chromosomes per plan
+    delay: float = 10.0            # s a task may run late against the plan before the fleet is planned again
+    seed: int = 0
+
+
+@dataclass(frozen=True)
 class BaselineSettings:
     random_choice: str
     ga: GaSettings
@@ -54,6 +64,7 @@ class BaselineSettings:
     precedence_margin: float       # s between a predecessor's finish and a successor's arrival in one step
     rollout: RolloutBudget
     lookahead: LookaheadBudget
+    replan: ReplanSettings = ReplanSettings()
 
     def with_cpsat(self, time_limit: Optional[float] = None, workers: Optional[int] = None) -> "BaselineSettings":
         """These settings with the CP-SAT time limit and worker count replaced where given."""
@@ -93,6 +104,7 @@ def load_baseline_settings(path: Optional[Union[str, Path]] = None) -> BaselineS
                         max_states=exact.integer("max_states", minimum=1),
                         time_limit=exact.number("time_limit", above=0.0), memory_mb=exact.number("memory_mb", above=0.0))
     cpsat = root.section("cpsat")
+    replan = root.section("replan")
     rollout = root.section("rollout")
     lookahead = root.section("lookahead")
     rollout_budget = RolloutBudget(alternatives=rollout.integer("alternatives", minimum=1),
@@ -114,6 +126,11 @@ def load_baseline_settings(path: Optional[Union[str, Path]] = None) -> BaselineS
                                   orientations=lookahead.integer("orientations", minimum=1, maximum=8),
                                   max_play_outs=lookahead.integer("max_play_outs", minimum=1),
                                   opening=rollout_budget if lookahead.boolean("opening") else None),
+        replan=ReplanSettings(method=replan.choice("method", ["insertion", "ga", "cpsat"]),
+                              time_limit=replan.number("time_limit", above=0.0),
+                              ga_evaluations=replan.integer("ga_evaluations", minimum=1),
+                              delay=replan.number("delay", above=0.0),
+                              seed=cpsat.integer("seed", minimum=0)),
     )
     root.check_all_used()
     return settings

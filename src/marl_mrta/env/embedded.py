@@ -155,6 +155,21 @@ class EmbeddedExecutor:
         self.clock = max(self.clock, time)
         return EventAdvance(self.clock, ended, [0] * self.n_robots)
 
+    def stop(self, robot: int) -> None:
+        """The robot's leg dropped: it stays on the node it left from (the table knows no
+        intermediate poses, as for a leg that fails)."""
+        self._legs[robot] = None
+
+    def add_goals(self, scenario, table: TravelTable) -> None:
+        """The table of the scenario with tasks added (their nodes after the others')."""
+        self.table = table
+        if self._limits is not None:
+            self._limits = [[self.goal_timeout.leg(t) for t in row] for row in table.time_rows]
+
+    def nodes(self) -> List[int]:
+        """The table node each robot stands on (a driving robot: the one it left from)."""
+        return list(self._nodes)
+
     def poses(self) -> List[Tuple[float, float, float]]:
         node_poses = self.table.node_poses
         return [node_poses[node] for node in self._nodes]

@@ -19,6 +19,9 @@ Observations keep the synchronous layout (one encoder, so an actor serves both m
 robot is shown where it will come free (its task's goal), its current task as the task it
 drives to, holds at or serves; tasks taken by a busy robot are in `info.robot_tasks` (the
 claims of a policy that decides in turn) and masked for the other robots.
+
+A live fleet (env/live_fleet.py): tasks not yet known, and cancelled ones, are shown finished
+and masked; robots that have left never decide; requests apply between decision instants.
 """
 from __future__ import annotations
 
@@ -28,6 +31,7 @@ from typing import Dict, List, Optional, Sequence
 import numpy as np
 
 from marl_mrta.env.api import REWARD_COMPONENTS, StepInfo, StepOutput
+from marl_mrta.env.live_fleet import LiveFleetMixin
 from marl_mrta.env.observation import ObservationEncoder, float32_array
 from marl_mrta.env.settings import TaskSettings
 from marl_mrta.model.event_rules import DRIVING, HOLDING, IDLE, SERVING, EventOutcome, EventRules
@@ -40,13 +44,13 @@ from marl_mrta.model.schedule import EpisodeRecord, ScheduleEntry
 MAX_INSTANTS = 100_000
 
 
-class EventTaskEnvironment:
+class EventTaskEnvironment(LiveFleetMixin):
     """Implements env.api.TaskAllocationEnv in event mode for one scenario and one event executor."""
 
     decision_mode = "event"
 
     def __init__(self, scenario: Scenario, executor, reward: RewardConfig, settings: TaskSettings,
-                 seed: Optional[int] = None):
+                 seed: Optional[int] = None, travel_model=None):
         self.scenario = scenario
         self.executor = executor
         self.reward = reward
@@ -61,15 +65,18 @@ class EventTaskEnvironment:
         self._goal_pose = [(t.goal.x, t.goal.y, t.goal.yaw) for t in scenario.tasks]
         self._timeout = scenario.episode_timeout
         self.rules = EventRules(scenario.n_robots, scenario.predecessors, [t.service_time for t in scenario.tasks],
-                                settings.min_step)
+                                settings.min_step, [t.release <= 0.0 for t in scenario.tasks])
         self._next_seed = seed
         self.record: Optional[EpisodeRecord] = None
+        self.over = False
+        self._init_live(travel_model)
 
     # ------------------------------------------------------------------ interface
 
     def reset(self, seed: Optional[int] = None) -> StepOutput:
         if seed is None:
             seed, self._next_seed = self._next_seed, None
+        self._restore_scenario()
         self.executor.reset(seed)
         n, m = self.n_agents, self.n_tasks
         self.elapsed = 0.0
@@ -85,7 +92,7 @@ class EventTaskEnvironment:
                                     nav_time=[0.0] * n, idle_time=[0.0] * n, collisions=[0] * n,
                                     decision_mode="event")
         self._finish_order = 0
-        self._entries_of: dict = {}
+        self._live_reset()
         zeros = np.zeros(n, dtype=np.float32)
         return self._output(zeros, {name: zeros.copy() for name in REWARD_COMPONENTS}, False, False,
                             StepInfo(step=0, elapsed=0.0, finished=[False] * m, robot_tasks=[None] * n))
@@ -106,8 +113,11 @@ class EventTaskEnvironment:
         for task, done in enumerate(finished):
             if done:
                 self.record.task_logic_correct[task] = True
-        n = self.n_agents
-        zeros = np.zeros(n, dtype=np.float32)
+        return self.current_output()
+
+    def current_output(self) -> StepOutput:
+        """The episode as it stands, the due robots deciding (no transition: zero rewards)."""
+        zeros = np.zeros(self.n_agents, dtype=np.float32)
         return self._output(zeros, {name: zeros.copy() for name in REWARD_COMPONENTS}, False, False,
                             StepInfo(step=self.step_index, elapsed=self.elapsed, finished=list(self.rules.finished),
                                      robot_tasks=[r.task for r in self.rules.robots]))
@@ -127,11 +137,16 @@ class EventTaskEnvironment:
         joint: List[Optional[int]] = [None] * self.n_agents
         for robot in deciding:
             task = None if values[robot] == none else values[robot]
-            was_holding = rules.robots[robot].phase == HOLDING and rules.robots[robot].task == task
+            state = rules.robots[robot]
+            was_holding = state.phase == HOLDING and state.task == task
+            left_task = rules.attempts[robot] if state.phase == HOLDING and not was_holding else None
             rules.assign(robot, task, start)
+            if left_task is not None:   # it leaves the task it held at, unserved: in the record
+                self._record_attempt(left_task)
             self.decisions[robot] += 1
             joint[robot] = task
             if task is not None and not was_holding:
+                self._note_dispatch(robot, self.robot_nodes()[robot])
                 executor.dispatch(robot, task)
                 self.previous_task[robot] = task
         record.joint_actions.append(joint)
@@ -145,8 +160,11 @@ class EventTaskEnvironment:
         for _ in range(MAX_INSTANTS):
             if rules.due or rules.done:
                 break
+            if not any(rules.present(i) for i in range(self.n_agents)) and not self._awaits_changes():
+                aborted, abort_reason = True, "every robot has left the fleet"
+                break
             timer = rules.next_timer()
-            until = min(timer if timer is not None else math.inf, self._timeout)
+            until = min(timer if timer is not None else math.inf, self._next_timed_time(), self._timeout)
             if until <= now and not rules.running():
                 break   # the timeout: nothing left to wait for
             result = executor.advance(until)
@@ -162,11 +180,18 @@ class EventTaskEnvironment:
                 aborted, abort_reason = True, result.abort_reason
                 break
             for leg in result.legs:
+                if rules.robots[leg.robot].phase != DRIVING:
+                    continue   # a leg stopped by a request or a robot's departure, ending as it stopped
                 ended = rules.leg_ended(leg.robot, now, leg.reached, leg.failure)
                 if ended is not None:
                     outcome.ended.append(ended)
+            for robot, reason in result.left:   # robots the executor lost (on_robot_fault continue)
+                if rules.present(robot):
+                    self._robot_leaves(robot, now, reason, outcome)
+                    self.fleet_version += 1
+            self._apply_timed(now, outcome)
             rules.advance_to(now, outcome)
-            if now >= self._timeout - 1e-9:
+            if now >= self._timeout - 1e-9 or self.interrupted():
                 break
         duration = now - start
         self.elapsed = now
@@ -240,6 +265,8 @@ class EventTaskEnvironment:
         mask[:, -1] = True
         for i in deciding:
             for j in range(self.n_tasks):
+                if not rules.known[j] or rules.cancelled[j]:
+                    continue   # not (or no longer) in the fleet's task set
                 if mode == "none":
                     mask[i, j] = True
                 elif not rules.finished[j] and not rules.taken(j, by_other_than=i):
@@ -257,7 +284,9 @@ class EventTaskEnvironment:
         current_goal = [self._goal_xy[t] if t is not None else (p[0], p[1]) for t, p in zip(current, shown)]
         previous_goal = [self._goal_xy[t] if t is not None else (p[0], p[1]) for t, p in zip(self.previous_task, poses)]
         reached = [r.phase in (HOLDING, SERVING) for r in rules.robots]
-        task_part = self.encoder.task_part(rules.finished, self.ready_flags(), rules.finish_time,
+        # Tasks not known yet, and cancelled ones, are shown as finished: nothing to do there.
+        closed = [not rules.open(j) for j in range(self.n_tasks)]
+        task_part = self.encoder.task_part(closed, self.ready_flags(), rules.finish_time,
                                            self.record.task_logic_correct)
         obs, state = self.encoder.encode(self.step_index, self.elapsed, shown, current, self.previous_task,
                                          current_goal, previous_goal, reached, self.last_nav, info.step_duration,

@@ -21,6 +21,13 @@ Event mode (env/event_env.py) drives legs one robot at a time while the others d
 2. `advance(until)`: time runs until the first leg ends, or until `until` (s since the episode's
    start) when none ends before; returns that time, the legs that ended then (reached or
    failed), and each robot's collision events meanwhile. Robots without a leg stand still.
+A live fleet (env/live_fleet.py) also uses:
+3. `stop(robot)`: the robot's leg ends now where it stands (a cancelled task, a robot leaving);
+   no LegEnd is reported for it.
+4. `add_goals(scenario, table)`: tasks were added (at the end of scenario.tasks, and of the
+   table's nodes): their goals may be dispatched from now on.
+An executor that loses one robot but can go on without it (real robots with on_robot_fault
+continue) reports it in EventAdvance.left, after stopping it.
 """
 from __future__ import annotations
 
@@ -67,6 +74,7 @@ class EventAdvance:
     collisions: List[int]                # per robot, collision events since the last advance
     aborted: bool = False
     abort_reason: str = ""
+    left: List[Tuple[int, str]] = field(default_factory=list)   # robots lost (stopped), with the reason
 
 
 class EventExecutor(Protocol):
@@ -85,6 +93,12 @@ class EventExecutor(Protocol):
 
     def poses(self) -> List[Tuple[float, float, float]]:
         """Current (x, y, yaw) of every robot in the map frame."""
+
+    def stop(self, robot: int) -> None:
+        """The robot's leg ends now (live fleet)."""
+
+    def add_goals(self, scenario, table) -> None:
+        """Tasks added at the end of scenario.tasks (live fleet)."""
 
 
 class Executor(Protocol):

@@ -97,10 +97,12 @@ def make_env(scenario: Union[str, Path, Scenario], executor: Union[str, Executor
         reward = RewardConfig.load(scenario.nav_thresholds, reward_config, scenario.reward_overrides)
     except ConfigError as error:
         raise ScenarioError(f"{scenario.source}: <reward>: {error}") from None
-    if not isinstance(executor, str):
-        return environment(scenario, executor, reward, settings, seed)
     embedded = load_embedded_settings(embedded_config)
+    # Event mode keeps the travel model: a live fleet plans the goals of tasks submitted to it.
+    extra = {"travel_model": embedded.travel} if environment is EventTaskEnvironment else {}
+    if not isinstance(executor, str):
+        return environment(scenario, executor, reward, settings, seed, **extra)
     table = nominal_travel_table(scenario, embedded.travel)
     runner = EmbeddedExecutor(table, scenario.n_robots, embedded.profile(profile), settings.goal_timeout, seed,
                               embedded.collision_distance, embedded.collision_dt)
-    return environment(scenario, runner, reward, settings, seed)
+    return environment(scenario, runner, reward, settings, seed, **extra)

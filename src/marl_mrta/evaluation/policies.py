@@ -9,6 +9,8 @@ from typing import List, Optional
 import numpy as np
 
 from marl_mrta.baselines.plan import NominalRun, Plan, next_goals
+from marl_mrta.baselines.replan import fleet_instance, planned_finishes, repair
+from marl_mrta.baselines.settings import ReplanSettings
 from marl_mrta.env.api import StepOutput
 from marl_mrta.mappo.claims import busy_claims
 from marl_mrta.model.event_rules import route_actions
@@ -77,6 +79,51 @@ class EventPlanPolicy:
 
     def act(self, output: StepOutput) -> List[int]:
         return route_actions(self.plan.robot_tasks, output.info.finished, output.deciding, self.n_tasks)
+
+
+class ReplanPolicy:
+    """A live fleet's allocator (baselines/replan.py): plans the fleet as it stands at the first
+    decision, again at every change of the fleet (env.fleet_version) and when a task runs
+    `delay` s later than planned, and carries the plan out as events (route_actions). Acts on an
+    event-mode environment it reads directly (in process: evaluate, the task manager)."""
+
+    name = "replan"
+
+    def __init__(self, env, settings: ReplanSettings):
+        if getattr(env, "decision_mode", "synchronous") != "event":
+            raise ValueError("the replanning allocator decides in event mode (decision_mode event)")
+        self.env = env
+        self.settings = settings
+        self.plans = 0                   # plans made in this episode
+        self._routes: List[List[int]] = []
+        self._version: Optional[int] = None
+        self._planned: dict = {}
+
+    def begin_episode(self, first: StepOutput, episode: Optional[int] = None) -> None:
+        self._routes, self._version, self._planned, self.plans = [], None, {}, 0
+
+    def _late(self) -> bool:
+        now, rules = self.env.elapsed, self.env.rules
+        return any(not rules.closed(j) and now > finish + self.settings.delay for j, finish in self._planned.items())
+
+    def replan(self) -> None:
+        env = self.env
+        view = fleet_instance(env)
+        index = {j: k for k, j in enumerate(view.tasks)}
+        previous = [[index[t] for t in self._routes[r] if t in index] if r < len(self._routes) else []
+                    for r in view.robots]
+        plan = repair(view.instance, previous, self.settings)
+        self._routes = view.to_episode(plan.robot_tasks, env.n_agents)
+        self._planned = planned_finishes(view, plan)
+        self._version = env.fleet_version
+        self.plans += 1
+
+    def act(self, output: StepOutput) -> List[int]:
+        env = self.env
+        if self._version != env.fleet_version or self._late():
+            self.replan()
+        closed = [env.rules.closed(j) for j in range(env.n_tasks)]
+        return route_actions(self._routes, closed, output.deciding, env.n_tasks)
 
 
 def plan_policy(plan: Plan, n_agents: int, n_tasks: int, decision_mode: str = "synchronous"):

@@ -62,6 +62,17 @@ class TaskSpec:
     category: str
     goal: Pose2D
     service_time: float   # s spent at the goal after arrival (pick/place), default 0
+    # s since the episode's start at which the task becomes known (a live fleet: unknown to every
+    # method before it); 0: known from the start
+    release: float = 0.0
+
+
+@dataclass(frozen=True)
+class FaultSpec:
+    """<faults>/<fault>: robot (index) leaves the fleet `at` s after the episode's start."""
+
+    robot: int
+    at: float
 
 
 @dataclass(frozen=True)
@@ -85,6 +96,13 @@ class Scenario:
     # <episode goal_timeout>: seconds or "auto" (model/goal_timeout.py), over config/task.yaml's;
     # None: not given. make_env's env.scenario carries the goal timeout its episodes run with.
     goal_timeout: Optional[TimeoutValue] = None
+    # <faults>: robots that leave the fleet during the episode, by time
+    faults: Tuple[FaultSpec, ...] = ()
+
+    @property
+    def live(self) -> bool:
+        """Tasks released after the start, or robots that leave: the fleet changes while it works."""
+        return bool(self.faults) or any(task.release > 0.0 for task in self.tasks)
 
     @property
     def n_robots(self) -> int:
@@ -109,7 +127,7 @@ class Scenario:
         return load_map(self.map_path)
 
 
-_ROOT_CHILDREN = ("map", "robots", "tasks", "precedence", "episode", "nav_time", "reward")
+_ROOT_CHILDREN = ("map", "robots", "tasks", "precedence", "episode", "nav_time", "reward", "faults")
 
 
 class _Reader:
@@ -183,20 +201,32 @@ class _Reader:
         return Pose2D(self.number(element, "x"), self.number(element, "y"), self.number(element, "yaw"))
 
     def check_on_free_cell(self, element: ET.Element, grid_map: OccupancyMap, pose: Pose2D, what: str) -> None:
-        cell = grid_map.world_to_cell(pose.x, pose.y)
-        if cell is None:
-            raise self.fail(element, f"{what} ({pose.x:g}, {pose.y:g}) is off the map")
-        value = int(grid_map.grid[cell.row, cell.col])
-        if value == OCCUPIED:
-            raise self.fail(element, f"{what} ({pose.x:g}, {pose.y:g}) is inside an obstacle")
-        if value != FREE:
-            raise self.fail(element, f"{what} ({pose.x:g}, {pose.y:g}) is on an unknown (not free) cell")
+        problem = free_cell_problem(grid_map, pose, what)
+        if problem:
+            raise self.fail(element, problem)
+
+
+def free_cell_problem(grid_map: OccupancyMap, pose: Pose2D, what: str) -> str:
+    """Why `pose` cannot be a start pose or goal (off the map, inside an obstacle, on an unknown
+    cell), one phrase; "" when it stands on a free cell. Scenario files and tasks submitted to a
+    live fleet (env/live_fleet.py) alike."""
+    cell = grid_map.world_to_cell(pose.x, pose.y)
+    if cell is None:
+        return f"{what} ({pose.x:g}, {pose.y:g}) is off the map"
+    value = int(grid_map.grid[cell.row, cell.col])
+    if value == OCCUPIED:
+        return f"{what} ({pose.x:g}, {pose.y:g}) is inside an obstacle"
+    if value != FREE:
+        return f"{what} ({pose.x:g}, {pose.y:g}) is on an unknown (not free) cell"
+    return ""
 
 
 def _describe(element: ET.Element) -> str:
     key = element.attrib.get("id")
     if key is None and element.tag == "edge":
         return f"<edge before=\"{element.attrib.get('before', '')}\" after=\"{element.attrib.get('after', '')}\">"
+    if key is None and element.tag == "fault":
+        return f"<fault robot=\"{element.attrib.get('robot', '')}\">"
     return f"<{element.tag} id=\"{key}\">" if key is not None else f"<{element.tag}>"
 
 
@@ -256,11 +286,13 @@ def load_scenario(path: Union[str, Path], nav_time_required: bool = True) -> Sce
     thresholds = _read_nav_thresholds(reader, root, nav_time_required)
 
     overrides = _read_reward_overrides(reader, reader.single(root, "reward", required=False))
+    faults = _read_faults(reader, reader.single(root, "faults", required=False), robots)
     return Scenario(name=name, source=path, map_path=map_path, robots=robots, tasks=tasks,
                     predecessors=predecessors, nav_thresholds=thresholds, episode_timeout=timeout,
                     map_bounds=(grid_map.origin.x, grid_map.origin.y, grid_map.width * grid_map.resolution,
                                 grid_map.height * grid_map.resolution),
-                    reward_overrides=overrides, navigation_dir=navigation_dir, goal_timeout=goal_timeout)
+                    reward_overrides=overrides, navigation_dir=navigation_dir, goal_timeout=goal_timeout,
+                    faults=faults)
 
 
 def _read_posed(reader: _Reader, parent: ET.Element, tag: str, attributes: Sequence[str],
@@ -311,16 +343,16 @@ def _read_nav_thresholds(reader: _Reader, root: ET.Element, required: bool) -> O
 
 def _check_chains_fit(reader: _Reader, parent: ET.Element, tasks: Sequence["TaskSpec"],
                       predecessors: Sequence[Sequence[int]], timeout: float) -> None:
-    """Every task can be finished in order within the episode: its service time, after the
-    service times of the longest precedence chain before it (predecessors finish strictly first,
-    one after another), ends by the timeout."""
+    """Every task can be finished in order within the episode: its service time, from its release
+    and after the service times of the longest precedence chain before it (predecessors finish
+    strictly first, one after another), ends by the timeout."""
     elements = [e for e in parent if e.tag == "task"]
     done_by: Dict[int, Tuple[float, List[int]]] = {}
 
     def earliest(j: int) -> Tuple[float, List[int]]:
         if j not in done_by:
             before, chain = max((earliest(p) for p in predecessors[j]), default=(0.0, []), key=lambda c: c[0])
-            done_by[j] = (before + tasks[j].service_time, chain + [j])
+            done_by[j] = (max(before, tasks[j].release) + tasks[j].service_time, chain + [j])
         return done_by[j]
 
     for j, task in enumerate(tasks):
@@ -331,8 +363,9 @@ def _check_chains_fit(reader: _Reader, parent: ET.Element, tasks: Sequence["Task
         finish, chain = earliest(j)
         if finish > timeout:
             path = " -> ".join(tasks[i].id for i in chain)
+            what = "release and service" if any(tasks[i].release > 0.0 for i in chain) else "service"
             raise reader.fail(elements[j], f"cannot be finished in order within the episode timeout ({timeout:g} s): "
-                                           f"the chain {path} needs {finish:g} s of service alone")
+                                           f"the chain {path} needs {finish:g} s of {what} alone")
 
 
 #: A relative ROS graph name: what a robot id may be, since it is the robot's namespace.
@@ -351,11 +384,14 @@ def _read_robots(reader: _Reader, parent: ET.Element, grid_map: OccupancyMap) ->
 def _read_tasks(reader: _Reader, parent: ET.Element, grid_map: OccupancyMap) -> Tuple[TaskSpec, ...]:
     tasks: List[TaskSpec] = []
     for element, task_id, goal in _read_posed(reader, parent, "task", ("id", "category", "x", "y", "yaw"),
-                                              ("service_time",), grid_map, "goal"):
+                                              ("service_time", "release"), grid_map, "goal"):
         service = reader.number(element, "service_time", default=0.0)
         if service < 0.0:
             raise reader.fail(element, f"service_time must not be negative, got {service:g}")
-        tasks.append(TaskSpec(task_id, reader.text(element, "category"), goal, service))
+        release = reader.number(element, "release", default=0.0)
+        if release < 0.0:
+            raise reader.fail(element, f"release must not be negative, got {release:g}")
+        tasks.append(TaskSpec(task_id, reader.text(element, "category"), goal, service, release))
     return tuple(tasks)
 
 
@@ -380,14 +416,35 @@ def _read_precedence(reader: _Reader, parent: Optional[ET.Element],
         if before in preds[after]:
             raise reader.fail(element, "duplicate edge")
         preds[after].append(before)
-    cycle = _find_cycle(preds)
+    cycle = find_cycle(preds)
     if cycle:
         path = " -> ".join(tasks[i].id for i in cycle)
         raise reader.fail(parent, f"precedence has a cycle: {path}")
     return tuple(tuple(p) for p in preds)
 
 
-def _find_cycle(preds: Sequence[Sequence[int]]) -> List[int]:
+def _read_faults(reader: _Reader, parent: Optional[ET.Element], robots: Sequence[RobotSpec]) -> Tuple[FaultSpec, ...]:
+    """<faults>: at most one <fault robot at> per robot, `at` ≥ 0 s; in time order."""
+    if parent is None:
+        return ()
+    reader.attributes(parent, ())
+    index = {robot.id: i for i, robot in enumerate(robots)}
+    faults: Dict[int, FaultSpec] = {}
+    for element in reader.children(parent, "fault"):
+        reader.attributes(element, ("robot", "at"))
+        robot_id = reader.text(element, "robot")
+        if robot_id not in index:
+            raise reader.fail(element, f"unknown robot '{robot_id}'")
+        if index[robot_id] in faults:
+            raise reader.fail(element, f"robot '{robot_id}' given a fault more than once")
+        at = reader.number(element, "at")
+        if at < 0.0:
+            raise reader.fail(element, f"at must not be negative, got {at:g}")
+        faults[index[robot_id]] = FaultSpec(index[robot_id], at)
+    return tuple(sorted(faults.values(), key=lambda fault: (fault.at, fault.robot)))
+
+
+def find_cycle(preds: Sequence[Sequence[int]]) -> List[int]:
     """A cycle of the precedence graph as a list of task indices (first == last), or []."""
     state = [0] * len(preds)   # 0 unvisited, 1 on the stack, 2 done
     stack: List[int] = []

@@ -48,6 +48,10 @@ class EpisodeRecord:
     idle_time: List[float] = field(default_factory=list)                 # per robot, total
     collisions: List[int] = field(default_factory=list)                  # per robot, total
     decision_mode: str = "synchronous"   # synchronous (the paper's steps) | event
+    # A live fleet (env/live_fleet.py): per task, s when it became known (0: from the start; its
+    # release or submission), and what changed: {time, event, subject, detail} in time order
+    released_at: List[Optional[float]] = field(default_factory=list)
+    fleet_events: List[Dict[str, Any]] = field(default_factory=list)
 
     def idle_share(self, service_times: Sequence[float]) -> float:
         """The time robots wait between their tasks (at a step's end, for predecessors, or idle),
@@ -75,13 +79,23 @@ class EpisodeRecord:
         return waited / spans if spans > 0 else 0.0
 
     @property
+    def live(self) -> bool:
+        """The fleet changed while it worked (a release, a request, a robot lost)."""
+        return bool(self.fleet_events) or any(t not in (None, 0.0) for t in self.released_at)
+
+    def cancelled_tasks(self) -> List[str]:
+        return [e["subject"] for e in self.fleet_events if e["event"] == "cancelled"]
+
+    @property
     def decision_steps(self) -> int:
         return len(self.step_durations)
 
     @property
     def logic_consistent(self) -> bool:
-        """Every task finished, each in correct order."""
-        return self.complete and all(bool(flag) for flag in self.task_logic_correct)
+        """Every task finished (or cancelled, in a live fleet), each in correct order."""
+        cancelled = set(self.cancelled_tasks())
+        return self.complete and all(bool(flag) for task, flag in zip(self.task_ids, self.task_logic_correct)
+                                     if task not in cancelled)
 
     def robot_task_lists(self) -> List[List[int]]:
         """Per robot, the tasks it finished, in order."""
@@ -98,6 +112,8 @@ class EpisodeRecord:
         data = asdict(self)
         if self.decision_mode == "synchronous":   # the paper's documents, as they always were
             del data["decision_mode"]
+        if not self.live:
+            del data["released_at"], data["fleet_events"]
         for entry in data["entries"]:
             if entry["service_start"] is None:
                 del entry["service_start"]

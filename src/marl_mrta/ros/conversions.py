@@ -11,6 +11,7 @@ from typing import List, Optional, Sequence
 import numpy as np
 
 from marl_mrta.msg import EpisodeRecord as EpisodeRecordMsg
+from marl_mrta.msg import FleetEvent as FleetEventMsg
 from marl_mrta.msg import ScheduleEntry as ScheduleEntryMsg
 from marl_mrta.msg import StepInfo as StepInfoMsg
 from marl_mrta.msg import TaskEnvOutput
@@ -61,7 +62,9 @@ def record_to_message(record: EpisodeRecord) -> EpisodeRecordMsg:
         finished_by=_indices(record.finished_by),
         task_logic_correct=[bool(c) for c in record.task_logic_correct],
         nav_time=list(record.nav_time), idle_time=list(record.idle_time), collisions=list(record.collisions),
-        decision_mode=record.decision_mode)
+        decision_mode=record.decision_mode, task_released=[t is not None for t in record.released_at],
+        released_at=[0.0 if t is None else t for t in record.released_at],
+        fleet_events=[FleetEventMsg(e["time"], e["event"], e["subject"], e["detail"]) for e in record.fleet_events])
 
 
 def record_from_message(msg: EpisodeRecordMsg) -> EpisodeRecord:
@@ -78,7 +81,10 @@ def record_from_message(msg: EpisodeRecordMsg) -> EpisodeRecord:
         finished_by=[int(r) if d else None for r, d in zip(msg.finished_by, done)],
         task_logic_correct=[bool(c) if d else None for c, d in zip(msg.task_logic_correct, done)],
         nav_time=list(msg.nav_time), idle_time=list(msg.idle_time), collisions=[int(c) for c in msg.collisions],
-        decision_mode=msg.decision_mode or "synchronous")
+        decision_mode=msg.decision_mode or "synchronous",
+        released_at=[t if known else None for t, known in zip(msg.released_at, msg.task_released)],
+        fleet_events=[{"time": e.time, "event": e.event, "subject": e.subject, "detail": e.detail}
+                      for e in msg.fleet_events])
 
 
 def info_to_message(info: StepInfo) -> StepInfoMsg:
