@@ -5,9 +5,10 @@ or joins: env/live_fleet.py), and when the robots run late against the plan, the
 allocator (evaluation/policies.py's ReplanPolicy) plans again for the robots still in the fleet
 and the tasks still open (fleet_instance):
 - each robot from where it comes free: an idle robot from its node, now; a robot holding at a
-  task from there, now (staying costs nothing, leaving is allowed); a robot driving to or
-  serving a task keeps that task first on its route (a leg or a service is not broken off),
-  from its leg's start or its service start;
+  task that decides now from there, now (staying costs nothing, leaving is allowed); a robot
+  driving to, serving, or holding at a task without a decision now keeps that task first on
+  its route (a leg or a service is not broken off), from its leg's start, its service start or
+  its arrival;
 - the open tasks known now, with their unfinished predecessors (a task whose predecessor is not
   known yet waits for a later plan);
 - legs from the nominal travel table, direct (event mode), in the episode's absolute time.
@@ -80,7 +81,8 @@ def fleet_instance(env) -> FleetView:
     for r, state in enumerate(rules.robots):
         if not rules.present(r):
             continue
-        if state.phase in (DRIVING, SERVING):
+        # A holding robot that does not decide now keeps its task (nothing tells it otherwise).
+        if state.phase in (DRIVING, SERVING) or (state.phase == HOLDING and r not in rules.due):
             if state.task not in task_index:
                 continue   # committed to a task that waits for one not known yet: planned later
             task_node = env.n_agents + state.task
@@ -92,9 +94,9 @@ def fleet_instance(env) -> FleetView:
                 ready.append(max(state.leg_start, now - leg))   # a leg running late arrives no earlier than now
             else:
                 robot_nodes.append(task_node)
-                ready.append(state.since)   # its service start
+                ready.append(state.since)   # its service start, or its arrival (holding)
             first.append(task_index[state.task])
-        else:   # idle, or holding at a task: free now (a holding robot may stay, at no cost, or leave)
+        else:   # idle, or holding and deciding: free now (a holding robot may stay, at no cost, or leave)
             robot_nodes.append(env.n_agents + state.task if state.phase == HOLDING else nodes[r])
             ready.append(now)
             first.append(None)

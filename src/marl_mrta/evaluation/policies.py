@@ -123,7 +123,13 @@ class ReplanPolicy:
         if self._version != env.fleet_version or self._late():
             self.replan()
         closed = [env.rules.closed(j) for j in range(env.n_tasks)]
-        return route_actions(self._routes, closed, output.deciding, env.n_tasks)
+        actions = route_actions(self._routes, closed, output.deciding, env.n_tasks)
+        if any(a < env.n_tasks and env.rules.taken(a, by_other_than=r) for r, a in enumerate(actions)):
+            self.replan()   # the plan sends a robot where another one is: it is out of date
+            actions = route_actions(self._routes, closed, output.deciding, env.n_tasks)
+        # Never onto a task another robot has: it waits instead, and decides again at the next event.
+        return [env.n_tasks if a < env.n_tasks and env.rules.taken(a, by_other_than=r) else a
+                for r, a in enumerate(actions)]
 
 
 def plan_policy(plan: Plan, n_agents: int, n_tasks: int, decision_mode: str = "synchronous"):
