@@ -36,6 +36,8 @@ RESULT_FILES: Dict[str, str] = {
     "bench_generalise": "The shipped generalist on generated scenarios it never saw: zero-shot, with lookahead, with rollout, fine-tuned; the GA beside it.",
     "bench_scale": "The reference solvers, the baselines and MAPPO from 2 robots x 8 tasks to 16 x 32.",
     "bench_event": "The paper's synchronous steps against event mode on the labs, the site and generated floors: the best known plans and gaps, idle shares, the learned policies; Gantt charts of both modes in results/bench_event/.",
+    "bench_fleet": "A live fleet on site_8r and site_16r: tasks released over time and robots lost, the replanning allocator against the same planner told everything at the start.",
+    "bench_floor": "Building-size floors (60 x 60 m at 0.05 m, a 30 x 50 m warehouse at 0.03 m) beside the lab: the travel table, the simulator and navigation cores.",
     "bench_sim": "The simulator's speed: the core alone and the node with every topic subscribed.",
     "bench_nav": "Built-in navigation: planning and control cycle times, a tour of the lab's goals, the whole graph in lock-step.",
     "bench_nav_vs_stock": "Built-in navigation and localisation against the stock navigation stack on the same legs.",
