@@ -115,8 +115,9 @@ def _teacher_run(tmp_path, scenario, **settings):
 def teacher_plans(runner):
     """The teacher's plans made again here as offer_teacher_plan makes them: the GA's (the run's
     seed) and the reference's with the GA's plan among its candidates (full budget)."""
-    task = load_task_settings()
-    instance = scheduling_instance(runner.replay_env()[0].scenario, task.min_step, task.goal_timeout)
+    scenario = runner.replay_env()[0].scenario
+    task = load_task_settings().for_scenario(scenario)   # the goal timeout the run plans with (site_8r's 60 s)
+    instance = scheduling_instance(scenario, task.min_step, task.goal_timeout)
     settings = load_baseline_settings()
     ga = under_either_rules(lambda inst: solve_ga(inst, settings.ga, seed=runner.seed), instance)
     return ga, solve_reference(instance, settings, candidates=[ga]).plan
@@ -182,8 +183,9 @@ def test_a_reference_teacher_held_to_a_budget_is_never_longer_than_the_ga(tmp_pa
     site_8r = package_root() / "scenarios" / "site_8r.xml"
     runner, _ = _teacher_run(tmp_path, site_8r, teacher="reference", teacher_seconds=0.05,
                              decision_order="sequential")
-    task = load_task_settings()
-    instance = scheduling_instance(runner.replay_env()[0].scenario, task.min_step, task.goal_timeout)
+    scenario = runner.replay_env()[0].scenario
+    task = load_task_settings().for_scenario(scenario)   # the goal timeout the run plans with (site_8r's 60 s)
+    instance = scheduling_instance(scenario, task.min_step, task.goal_timeout)
     ga = under_either_rules(lambda inst: solve_ga(inst, settings.ga, seed=0), instance)
     assert runner.self_imitation.best_seed == 0                 # a schedule was offered
     assert runner.self_imitation.best_makespan <= ga.makespan + 1e-6
