@@ -133,7 +133,8 @@ def test_move_base_drives_each_robot_through_its_gate_unless_told_not_to():
     for robot, (topic, gate) in outputs.items():
         assert topic == "cmd_vel_nav"
         assert gate is not None and gate.type == "cmd_vel_gate"
-        assert params[f"/{robot}/cmd_vel_gate/permit_topic"].value == "/rl_task_allocation_manager/drive_permit"
+        # Its own permit: a stop of this robot alone (on_robot_fault continue) closes only its gate.
+        assert params[f"/{robot}/cmd_vel_gate/permit_topic"].value == f"/rl_task_allocation_manager/drive_permit/{robot}"
     outputs, _ = navigation_outputs("cmd_vel_gate:=false")
     assert all(topic == "cmd_vel" and gate is None for topic, gate in outputs.values())
 

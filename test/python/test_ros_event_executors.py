@@ -67,7 +67,7 @@ class FakeRealRobots(real_events.RealEventMode):
         self.namespaces = ["tb3_0", "tb3_1"]
         goal = SimpleNamespace(x=1.0, y=2.0, yaw=0.0)
         self.scenario = SimpleNamespace(tasks=[SimpleNamespace(id=f"T{j}", goal=goal) for j in range(3)])
-        self.settings = SimpleNamespace(simulator_lost_after=1.0, cancel_wait=1.0)
+        self.settings = SimpleNamespace(simulator_lost_after=1.0, cancel_wait=1.0, on_robot_fault="stop_fleet")
         self.timeouts = LegTimeouts(GoalTimeout(goal_timeout), self.n_robots)
         self.bases = [FakeBase(clock, "/" + ns) for ns in self.namespaces]
         self.monitor = SimpleNamespace(tripped=False, reason="")
@@ -212,7 +212,7 @@ class FakeSimRobots(sim_events.SimEventMode):
         self.namespaces = ["tb3_0", "tb3_1"]
         goal = SimpleNamespace(x=1.0, y=2.0, yaw=0.0)
         self.scenario = SimpleNamespace(tasks=[SimpleNamespace(id=f"T{j}", goal=goal) for j in range(3)])
-        self.settings = SimpleNamespace()
+        self.settings = SimpleNamespace(on_robot_fault="stop_fleet")
         self.timeouts = LegTimeouts(GoalTimeout(goal_timeout), self.n_robots)
         self.lost_after = 1.0
         self.shared_clock = False
@@ -277,3 +277,118 @@ def test_with_auto_a_leg_reached_in_the_simulation_moves_its_robots_next_deadlin
     assert robots.legs.legs[0].deadline == pytest.approx(3.0 + 2 * 15.0 + 30.0)
     assert robots.advance(until=200.0).legs[0].robot == 1
     assert robots.timeouts.nodes == [2, 1]
+
+
+# ---------------------------------------------------------------------------------------------
+# A live fleet (env/live_fleet.py): stop(), add_goals(), a request that ends a wait, and with
+# on_robot_fault continue a robot's own fault stopping it alone, reported in `left`.
+
+class FakeFleetStop:
+    def __init__(self):
+        self.alone, self.granted = [], []
+
+    def stop_robot(self, robot):
+        self.alone.append(robot)
+
+    def grant_robot(self, robot=None):
+        self.granted.append(robot)
+
+
+def continuing(robots):
+    robots.settings.on_robot_fault = "continue"
+    robots.fleet_stop = FakeFleetStop()
+    robots.monitor.excused = set()
+    robots.monitor.excuse = robots.monitor.excused.add
+    robots.monitor.watch_again = robots.monitor.excused.discard
+    return robots
+
+
+def test_stop_cancels_a_robots_goal_and_ends_its_leg_without_a_report(robots):
+    robots.dispatch(0, 0)
+    robots.dispatch(1, 1)
+    robots.stop(1)
+    assert robots.bases[1].cancels == 1 and robots.legs.running() == [0]
+    robots.clock.events.append((robots.clock.now + 2.0, lambda: robots.bases[0].end(GoalStatus.SUCCEEDED)))
+    result = robots.advance(until=50.0)
+    assert result.legs == [LegEnd(0, True)] and result.left == [] and robots.stops == []
+
+
+def test_a_waiting_request_ends_the_wait_at_once(robots):
+    robots.dispatch(0, 0)
+    waiting = [False]
+    robots.interrupted = lambda: waiting[0]
+    robots.clock.events.append((robots.clock.now + 1.5, lambda: waiting.__setitem__(0, True)))
+    result = robots.advance(until=50.0)
+    assert result.legs == [] and 1.5 <= result.time < 1.55 and robots.legs.running() == [0]
+
+
+def test_submitted_goals_are_dispatched_with_their_own_timeouts(robots):
+    goal = SimpleNamespace(x=5.0, y=6.0, yaw=0.0)
+    scenario = SimpleNamespace(tasks=robots.scenario.tasks + [SimpleNamespace(id="X1", goal=goal)])
+    robots.timeouts = robots.legs.timeouts = LegTimeouts(GoalTimeout(None, 2.0, 30.0), 2, NOMINAL)
+    table = SimpleNamespace(nominal_time=[row + [7.0] for row in NOMINAL] + [[7.0] * 5 + [0.0]])
+    robots.add_goals(scenario, table)
+    robots.dispatch(0, 3)
+    assert robots.bases[0].sent[-1] == (5.0, 6.0)
+    assert robots.legs.legs[0].deadline == pytest.approx(2 * 7.0 + 30.0)
+
+
+def test_with_continue_a_goal_aborted_stops_that_robot_alone_and_the_other_drives_on(robots):
+    clock = continuing(robots).clock
+    robots.dispatch(0, 0)
+    robots.dispatch(1, 1)
+    clock.events.append((clock.now + 2.0, lambda: robots.bases[1].end(GoalStatus.ABORTED, "Failed to find a valid plan.")))
+    result = robots.advance(until=50.0)
+    assert not result.aborted and robots.stops == []
+    assert result.left == [(1, "tb3_1: move_base aborted: Failed to find a valid plan.")]
+    assert robots.fleet_stop.alone == [1] and 1 in robots.monitor.excused and robots.legs.running() == [0]
+    clock.events.append((clock.now + 3.0, lambda: robots.bases[0].end(GoalStatus.SUCCEEDED)))
+    result = robots.advance(until=50.0)
+    assert result.legs == [LegEnd(0, True)] and result.left == []
+    robots.take_back(1)   # it joins again: watched again, may drive again
+    assert 1 not in robots.out_of_fleet and 1 not in robots.monitor.excused and robots.fleet_stop.granted == [1]
+
+
+def test_with_continue_the_watchdogs_fault_of_one_robot_ends_the_wait_and_a_fleet_fault_stops_all(robots):
+    clock = continuing(robots).clock
+    robots.dispatch(0, 0)
+    robots.dispatch(1, 1)
+    clock.events.append((clock.now + 1.0, lambda: robots.robot_fault(0, "tb3_0: odom silent for 1.1 s")))
+    result = robots.advance(until=50.0)
+    assert result.left == [(0, "tb3_0: odom silent for 1.1 s")] and 1.0 <= result.time < 1.05
+    assert robots.legs.running() == [1] and robots.stops == []
+    robots.robot_fault(0, "tb3_0: odom silent for 2.0 s")   # out already: nothing more
+    assert robots.fleet_stop.alone == [0]
+    clock.events.append((clock.now + 1.0, lambda: robots.trip("ROS master unreachable for 1.2 s")))
+    result = robots.advance(until=50.0)
+    assert result.aborted and result.abort_reason == "ROS master unreachable for 1.2 s"
+
+
+def test_before_the_episode_a_robots_fault_stops_every_robot_even_with_continue(robots):
+    continuing(robots)
+    robots.robot_fault(1, "tb3_1: scan silent for 1.0 s")
+    assert robots.stops == ["tb3_1: scan silent for 1.0 s"] and robots.fleet_stop.alone == []
+
+
+def test_in_the_simulation_a_robot_whose_move_base_is_gone_leaves_with_continue():
+    robots = FakeSimRobots()
+    robots.settings.on_robot_fault = "continue"
+    released = []
+    robots.sim.tracks_answers = True
+    robots.sim.release = released.append
+    robots.bases[1].process_gone = lambda: True
+    robots.bases[0].process_gone = lambda: False
+    robots.dispatch(0, 0)
+    robots.dispatch(1, 1)
+    assert robots._lose_if_gone([0, 1])
+    robots.sim.ends = {0: (100, GoalStatus.SUCCEEDED)}
+    result = robots.advance(until=50.0)
+    assert result.left == [(1, "tb3_1: move_base gone (its process does not answer)")] and released == [1]
+    assert result.legs == [] and robots.legs.running() == [0]
+    result = robots.advance(until=50.0)
+    assert result.legs == [LegEnd(0, True)] and result.left == []
+    # stop_fleet: nothing is let go; the caller aborts the episode as before.
+    robots = FakeSimRobots()
+    robots.bases[1].process_gone = lambda: True
+    robots.dispatch(0, 0)
+    assert not robots._lose_if_gone([1])

@@ -132,6 +132,12 @@ class LegTimeouts:
             return self.rule.leg(0.0)
         return self.rule.leg(self.nominal[self.nodes[robot]][self.n_robots + task])
 
+    def extend(self, nominal_time: Sequence[Sequence[float]]) -> None:
+        """Tasks were added (a live fleet): the table of every node, the new goals' after the
+        others' (the nodes the robots stand on keep their indices). Nothing to do with a fixed rule."""
+        if self.nominal is not None:
+            self.nominal = [list(map(float, row)) for row in nominal_time]
+
     def reached(self, robot: int, task: int) -> None:
         """The robot reached the task's goal: its next leg starts there."""
         self.nodes[robot] = self.n_robots + task

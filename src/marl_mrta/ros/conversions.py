@@ -1,4 +1,5 @@
-"""env.api.StepOutput <-> marl_mrta/TaskEnvOutput, the one place the wire format is defined.
+"""env.api.StepOutput <-> marl_mrta/TaskEnvOutput, and a live fleet's snapshot <->
+marl_mrta/FleetStatus: the one place the wire format is defined.
 
 The step information and its episode record travel as typed messages (StepInfo, EpisodeRecord,
 ScheduleEntry); "none" is -1 for indices and a flag beside a float, so a client rebuilds
@@ -12,12 +13,16 @@ import numpy as np
 
 from marl_mrta.msg import EpisodeRecord as EpisodeRecordMsg
 from marl_mrta.msg import FleetEvent as FleetEventMsg
+from marl_mrta.msg import FleetStatus as FleetStatusMsg
+from marl_mrta.msg import RobotStatus as RobotStatusMsg
+from marl_mrta.msg import TaskStatus as TaskStatusMsg
 from marl_mrta.msg import ScheduleEntry as ScheduleEntryMsg
 from marl_mrta.msg import StepInfo as StepInfoMsg
 from marl_mrta.msg import TaskEnvOutput
 
 from marl_mrta.env.api import REWARD_COMPONENTS, StepInfo, StepOutput
 from marl_mrta.model.schedule import EpisodeRecord, ScheduleEntry
+from marl_mrta.ros.fleet_status import FleetSnapshot, RobotStatus, TaskStatus
 
 NONE_INDEX = -1
 
@@ -140,3 +145,22 @@ def from_message(msg: TaskEnvOutput) -> StepOutput:
                            for name in REWARD_COMPONENTS},
         done=bool(msg.done), truncated=bool(msg.truncated), action_mask=mask, info=info_from_message(msg.info),
         deciding=np.asarray(msg.deciding, dtype=bool) if len(msg.deciding) else None)
+
+
+def snapshot_to_message(snapshot: FleetSnapshot, allocator: str, episode: int, stamp) -> FleetStatusMsg:
+    return FleetStatusMsg(
+        stamp=stamp, running=snapshot.running, allocator=allocator, episode=episode, elapsed=snapshot.elapsed,
+        tasks=[TaskStatusMsg(id=t.id, category=t.category, status=t.status, robot=t.robot,
+                             predecessors=list(t.predecessors), submitted=t.submitted, orphaned=t.orphaned,
+                             released_at=t.released_at, start=t.start, finish=t.finish, x=t.x, y=t.y)
+               for t in snapshot.tasks],
+        robots=[RobotStatusMsg(id=r.id, status=r.status, task=r.task, x=r.x, y=r.y, left_reason=r.left_reason)
+                for r in snapshot.robots])
+
+
+def snapshot_from_message(msg: FleetStatusMsg) -> FleetSnapshot:
+    return FleetSnapshot(
+        running=msg.running, elapsed=msg.elapsed,
+        tasks=tuple(TaskStatus(t.id, t.category, t.status, t.robot, tuple(t.predecessors), t.submitted, t.orphaned,
+                               t.released_at, t.start, t.finish, t.x, t.y) for t in msg.tasks),
+        robots=tuple(RobotStatus(r.id, r.status, r.task, r.x, r.y, r.left_reason) for r in msg.robots))

@@ -12,8 +12,9 @@ leg's (0 on real robots).
 """
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
-from typing import List, Optional, Union
+from typing import List, Optional, Set, Tuple, Union
 
 from marl_mrta.model.goal_timeout import GoalTimeout, LegTimeouts
 
@@ -75,3 +76,65 @@ class LegBook:
     def overdue(self, now: float) -> List[int]:
         """Robots whose leg is past its deadline at `now`."""
         return [i for i, leg in enumerate(self.legs) if leg is not None and leg.deadline <= now + REACHED]
+
+
+class OutOfFleet:
+    """The robots an executor no longer drives, and its own losses not yet reported (`take`). A
+    robot is out when the executor lost it (`lose`: a fault of its own, on_robot_fault continue) or
+    the fleet let it go (`let_go`: a request, the scenario's fault); `back` when it joins. Thread-safe:
+    a watchdog may report a loss while the episode's thread waits."""
+
+    def __init__(self):
+        self._lock = threading.Lock()
+        self._out: Set[int] = set()
+        self._unreported: List[Tuple[int, str]] = []
+        self._losses: List[Tuple[int, str]] = []   # every loss of the episode, in order
+
+    def lose(self, robot: int, reason: str) -> bool:
+        """The executor lost the robot; False when it was out already (nothing to report)."""
+        with self._lock:
+            if robot in self._out:
+                return False
+            self._out.add(robot)
+            self._unreported.append((robot, reason))
+            self._losses.append((robot, reason))
+            return True
+
+    def let_go(self, robot: int) -> bool:
+        """The fleet let the robot go; False when it was out already."""
+        with self._lock:
+            if robot in self._out:
+                return False
+            self._out.add(robot)
+            return True
+
+    def back(self, robot: int) -> None:
+        with self._lock:
+            self._out.discard(robot)
+            self._unreported = [(r, why) for r, why in self._unreported if r != robot]
+
+    def take(self) -> List[Tuple[int, str]]:
+        """The losses not reported yet, in the order they happened."""
+        with self._lock:
+            taken, self._unreported = self._unreported, []
+        return taken
+
+    def losses(self) -> List[Tuple[int, str]]:
+        """Every robot the executor lost in this episode, with the reason, in order."""
+        with self._lock:
+            return list(self._losses)
+
+    def unreported(self) -> bool:
+        with self._lock:
+            return bool(self._unreported)
+
+    def clear(self) -> None:
+        """A new episode: every robot in the fleet."""
+        with self._lock:
+            self._out.clear()
+            self._unreported = []
+            self._losses = []
+
+    def __contains__(self, robot: int) -> bool:
+        with self._lock:
+            return robot in self._out

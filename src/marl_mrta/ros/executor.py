@@ -97,7 +97,8 @@ class RosExecutor(SimEventMode):
         # Absolute names: with several arenas the manager runs in its arena's namespace (arena_k)
         # while the robot namespaces (arena_k/tb3_i) are the simulator's, from the root.
         self.bases = [MoveBaseLink("/" + ns, settings.map_frame) for ns in self.namespaces]
-        self.clock = SimClock(self.lost_after, diagnose=self._diagnose)
+        self.clock = SimClock(self.lost_after, diagnose=self._diagnose, on_stall=self._on_stall)
+        self.sim.on_stall = self._on_stall
         # amcl (stock or built-in) is told every reset pose; ground-truth localisation needs nothing.
         self.localizers = [LocalizationLink("/" + ns, settings.map_frame) for ns in self.namespaces] \
             if settings.localization == "amcl" else []
@@ -161,6 +162,7 @@ class RosExecutor(SimEventMode):
         from it (and its `seed` parameter): the episode then never depends on how many ticks ran
         before it, at start-up or in earlier episodes. Without one the streams run on."""
         self._reset_events()
+        self.sim.watch_again()   # a controller let out of the lock-step in the last episode is waited for again
         self._pause(True)
         self._cancel_running()
         # On an aligned tick, so that the controllers' costmap updates (restarted by the clearing
@@ -408,6 +410,18 @@ class RosExecutor(SimEventMode):
         robots = [RobotOutcome(has_goal=g is not None, reached=False, nav_time=elapsed if g is not None else 0.0,
                                failure="aborted" if g is not None else "") for g in goals]
         return StepOutcome(robots=robots, aborted=True, abort_reason=reason)
+
+    def _on_stall(self) -> bool:
+        """The lock-step stalled (no answer for lost_after): with on_robot_fault continue while an
+        episode runs, the robots whose controller is silent and whose move_base process is gone
+        leave the fleet (sim_events.py). True when one did: the wait goes on without it."""
+        if self.shared_clock or not self.sim.tracks_answers:
+            return False
+        try:
+            tick, _ = self.sim.step(0, timeout_wall=1.0)
+        except SimulatorLost:
+            return False   # the simulator itself does not answer
+        return self._lose_if_gone(self.sim.silent_controllers(tick))
 
     def _diagnose(self) -> str:
         """Why /clock stopped: the simulator does not answer, or it waits for a controller."""

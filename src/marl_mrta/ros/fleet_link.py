@@ -1,8 +1,8 @@
 """What the real executor hears from and sends to a fleet of real robots, besides goals: every
 robot's odometry, scan and move_base status (to tell a silent one), how its scan fits the map
 where localisation puts it (to tell a lost one), the ROS master's answers, and
-the stop itself (every goal cancelled, zero cmd_vel, held for a moment), and the drive permit
-that opens each robot's cmd_vel gate (apps/cmd_vel_gate_node.py). The decisions are the ROS-free
+the stop itself (every goal cancelled, zero cmd_vel, held for a moment; of every robot, or of one
+robot alone), and the drive permits that open each robot's cmd_vel gate (apps/cmd_vel_gate_node.py). The decisions are the ROS-free
 ros/safety.py's; this module only moves messages and runs the watchdog.
 """
 from __future__ import annotations
@@ -11,7 +11,7 @@ import socket
 import threading
 import time
 import xmlrpc.client
-from typing import Callable, Dict, List, Optional, Sequence, Tuple
+from typing import Callable, Dict, List, Optional, Sequence, Set, Tuple
 
 import rosgraph
 import rospy
@@ -23,7 +23,7 @@ from std_msgs.msg import Bool, Float32
 from marl_mrta.model.occupancy_map import OccupancyMap
 from marl_mrta.model.scan_fit import TURN_WINDOW, ScanFit, quaternion_matrix, turn_rate
 from marl_mrta.model.scenario import footprint_radius
-from marl_mrta.ros.move_base_link import MoveBaseLink
+from marl_mrta.ros.move_base_link import MoveBaseLink, TimeoutTransport
 from marl_mrta.ros.safety import SafetyMonitor, hold_times
 
 #: How often the watchdog asks the monitor, and the master is asked for its pid [wall s].
@@ -35,23 +35,12 @@ HOLD_PERIOD = 0.1
 SCAN_POSE_WAIT = rospy.Duration(0.5)
 
 
-class _TimeoutTransport(xmlrpc.client.Transport):
-    """An XML-RPC transport whose connections give up after `timeout` s (rosgraph's have none)."""
-
-    def __init__(self, timeout: float):
-        super().__init__()
-        self.timeout = timeout
-
-    def make_connection(self, host):
-        connection = super().make_connection(host)
-        connection.timeout = self.timeout
-        return connection
-
-
 class FleetStop:
-    """Stops every robot: withdraws the drive permit (the robots' cmd_vel gates close), cancels
-    all goals of its move_base and sends zero cmd_vel at once, then every HOLD_PERIOD for `hold`
-    s (a command move_base had in flight cannot outlast it)."""
+    """Stops every robot, or one robot alone (on_robot_fault continue, a robot that leaves): withdraws
+    the drive permit (the robots' cmd_vel gates close), cancels all goals of its move_base and sends
+    zero cmd_vel at once, then every HOLD_PERIOD for `hold` s (a command move_base had in flight
+    cannot outlast it). The permit goes out on `~drive_permit` (the fleet's) and on
+    `~drive_permit/<robot>` (the fleet's and that robot's own, which each robot's gate follows)."""
 
     def __init__(self, namespaces: Sequence[str], bases: Sequence[MoveBaseLink], hold: float):
         self.namespaces = list(namespaces)
@@ -62,9 +51,12 @@ class FleetStop:
                          for ns in self.namespaces]
         # ~drive_permit: the node's own, sent by the watchdog 1 / WATCH_PERIOD times a second.
         self._permit = rospy.Publisher("~drive_permit", Bool, queue_size=1, tcp_nodelay=True)
+        self._robot_permits = [rospy.Publisher("~drive_permit/" + ns, Bool, queue_size=1, tcp_nodelay=True)
+                               for ns in self.namespaces]
         self._permit_lock = threading.Lock()
         self._withdrawn_at = float("-inf")
-        self._holding = threading.Event()
+        self._withdrawn_robots: Set[int] = set()
+        self._holding: Dict[int, threading.Event] = {i: threading.Event() for i in range(len(self.namespaces))}
 
     def robots_not_listening(self) -> List[str]:
         """Robots whose base (turtlebot3_core) does not subscribe to the manager's cmd_vel."""
@@ -72,50 +64,77 @@ class FleetStop:
 
     def send_permit(self, allowed: bool, checked_at: float) -> None:
         """The permit as the monitor stood at `checked_at` (monotonic s); a yes checked before the
-        last stop's withdrawal is stale and not sent."""
+        last stop's withdrawal is stale and not sent. A robot stopped alone gets no yes."""
         with self._permit_lock:
             if allowed and checked_at <= self._withdrawn_at:
                 return
             self._permit.publish(Bool(data=allowed))
+            for i, pub in enumerate(self._robot_permits):
+                pub.publish(Bool(data=allowed and i not in self._withdrawn_robots))
 
     def stop(self) -> None:
         with self._permit_lock:
             self._withdrawn_at = time.monotonic()
             self._permit.publish(Bool(data=False))
+            for pub in self._robot_permits:
+                pub.publish(Bool(data=False))
         for base in self.bases:
             base.cancel_all()
-        self._send_zero()
-        if self.hold > 0.0 and not self._holding.is_set():
-            self._holding.set()
-            threading.Thread(target=self._hold, daemon=True, name="stop_hold").start()
+        self._stop_robots(range(len(self.namespaces)))
+
+    def stop_robot(self, robot: int) -> None:
+        """That robot alone: its permit withdrawn until grant_robot(), its goals cancelled, zero held."""
+        with self._permit_lock:
+            self._withdrawn_robots.add(robot)
+            self._robot_permits[robot].publish(Bool(data=False))
+        self.bases[robot].cancel_all()
+        self._stop_robots([robot])
+
+    def grant_robot(self, robot: Optional[int] = None) -> None:
+        """The robot (None: every robot) may drive again once the fleet may (it joined, a new episode)."""
+        with self._permit_lock:
+            if robot is None:
+                self._withdrawn_robots.clear()
+            else:
+                self._withdrawn_robots.discard(robot)
 
     def wait_hold(self, timeout: float) -> None:
-        """Returns once a held stop has sent its last zero command (at most `timeout` s)."""
+        """Returns once every held stop has sent its last zero command (at most `timeout` s)."""
         deadline = time.monotonic() + timeout
-        while self._holding.is_set() and time.monotonic() < deadline:
+        while any(e.is_set() for e in self._holding.values()) and time.monotonic() < deadline:
             time.sleep(0.01)
 
-    def _send_zero(self) -> None:
-        for pub in self._cmd_vel:
-            pub.publish(Twist())
+    def _stop_robots(self, robots) -> None:
+        robots = list(robots)
+        for i in robots:
+            self._cmd_vel[i].publish(Twist())
+        if self.hold <= 0.0:
+            return
+        for i in robots:
+            if not self._holding[i].is_set():
+                self._holding[i].set()
+                threading.Thread(target=self._hold, args=(i,), daemon=True, name=f"stop_hold_{i}").start()
 
-    def _hold(self) -> None:
+    def _hold(self, robot: int) -> None:
         start = time.monotonic()
         for due in hold_times(start, self.hold, HOLD_PERIOD)[1:]:
             time.sleep(max(0.0, due - time.monotonic()))
-            self._send_zero()
-        self._holding.clear()
+            self._cmd_vel[robot].publish(Twist())
+        self._holding[robot].clear()
 
 
 class FleetWatch:
-    """Feeds a SafetyMonitor from the graph, calls `on_fault(reason)` when it finds a fault
-    while the fleet is not stopped already, and `permit(may_drive, checked_at)` at every check.
-    With `scan_fit`, every scan also goes to its on_scan() once heard."""
+    """Feeds a SafetyMonitor from the graph, calls `on_robot_fault(robot, reason)` for each robot
+    with a fault of its own and `on_fault(reason)` for a fault of the fleet, while the fleet is not
+    stopped already, and `permit(may_drive, checked_at)` at every check. With `scan_fit`, every
+    scan also goes to its on_scan() once heard."""
 
     def __init__(self, namespaces: Sequence[str], monitor: SafetyMonitor, on_fault: Callable[[str], None],
-                 permit: Callable[[bool, float], None], scan_fit: Optional["ScanFitWatch"] = None):
+                 permit: Callable[[bool, float], None], scan_fit: Optional["ScanFitWatch"] = None,
+                 on_robot_fault: Optional[Callable[[int, str], None]] = None):
         self.monitor = monitor
         self.on_fault = on_fault
+        self.on_robot_fault = on_robot_fault or (lambda robot, reason: on_fault(reason))
         self.permit = permit
         self.scan_fit = scan_fit
         for i, ns in enumerate(namespaces):
@@ -136,7 +155,7 @@ class FleetWatch:
 
     def _watch_master(self) -> None:
         timeout = max(0.05, min(0.5, self.monitor.limits.master_lost_after / 2.0))
-        master = xmlrpc.client.ServerProxy(self._master_uri, transport=_TimeoutTransport(timeout))
+        master = xmlrpc.client.ServerProxy(self._master_uri, transport=TimeoutTransport(timeout))
         while not rospy.core.is_shutdown():
             try:
                 master.getPid(rospy.get_name())
@@ -148,7 +167,12 @@ class FleetWatch:
     def _watch(self) -> None:
         while not rospy.core.is_shutdown():
             if not self.monitor.tripped:
-                reason = self.monitor.fault(time.monotonic())
+                now = time.monotonic()
+                for robot, reason in self.monitor.robot_faults(now):
+                    self.on_robot_fault(robot, reason)   # stops it alone, or the fleet (and trips)
+                    if self.monitor.tripped:
+                        break
+                reason = "" if self.monitor.tripped else self.monitor.fleet_fault(now)
                 if reason:
                     self.on_fault(reason)
             checked_at = time.monotonic()

@@ -30,6 +30,13 @@ MODES = ("simulation", "real")
 RESETS = ("start", "current")
 #: Real mode, reset start: the robots drive back one at a time (model/fleet.py) or all at once.
 RESET_DRIVES = ("one_by_one", "together")
+#: Who decides: a client over ~step (rl_manager, evaluate, train) or the manager itself with the
+#: replanning allocator (baselines/replan.py), which runs its episodes and takes run-time requests.
+ALLOCATORS = ("client", "replan")
+#: A fault that concerns one robot (real: its odometry, scan or move_base silent, its localisation
+#: lost, a goal move_base aborted; simulation: its move_base gone): every robot stopped and the
+#: episode aborted, or that robot alone stopped and out of the fleet while the others go on.
+ROBOT_FAULTS = ("stop_fleet", "continue")
 
 
 @dataclass(frozen=True)
@@ -50,6 +57,7 @@ class RosExecutorSettings:
     localization_settle: float = 0.6    # s of sim time run after it agrees (amcl's transform_tolerance 0.5)
     localization_tolerance_xy: float = 0.10    # m
     localization_tolerance_yaw: float = 0.10   # rad
+    on_robot_fault: str = "stop_fleet"  # stop_fleet | continue (ROBOT_FAULTS)
 
     def lost_after(self, n_robots: int) -> float:
         """s of wall time without an answer before the simulator counts as lost, for a team of
@@ -76,6 +84,18 @@ HOLD_CHOICES = {"": None, "true": True, "false": False}
 
 
 @dataclass(frozen=True)
+class LiveFleetSettings:
+    """Who allocates, and with allocator replan the manager's own episodes (docs/guide/live_fleet.md)."""
+
+    allocator: str = "client"           # client (~step) | replan (the manager decides itself)
+    episodes: int = 1                   # replan: episodes the manager runs (episode k reset with seed + k)
+    seed: int = 0                       # replan: seed of the first episode
+    out: str = ""                       # replan: result document ("": results/runs/replan_ros_<scenario>.json)
+    end_when_done: bool = False         # replan: the node exits after its episodes (ending a launch that requires it)
+    request_wait: float = 30.0          # s of wall time a run-time request waits for a decision instant
+
+
+@dataclass(frozen=True)
 class ManagerSettings:
     scenario: str                  # scenario XML file
     mask: Optional[str]            # none | finished | logic; None: config/task.yaml
@@ -88,6 +108,7 @@ class ManagerSettings:
     hold_successors: Optional[bool] = None   # None: config/task.yaml's (model/rules.py)
     decision_mode: Optional[str] = None      # synchronous | event; None: config/task.yaml's
     goal_timeout: Optional[TimeoutValue] = None   # s or "auto"; None: the scenario's, else config/task.yaml's
+    live: LiveFleetSettings = LiveFleetSettings()
 
 
 def read_manager_settings(params: Dict[str, Any], namespace: str,
@@ -120,7 +141,8 @@ def read_manager_settings(params: Dict[str, Any], namespace: str,
         localization_wait=p.number("localization_wait", above=0.0),
         localization_settle=p.number("localization_settle", minimum=0.0),
         localization_tolerance_xy=p.number("localization_tolerance_xy", above=0.0),
-        localization_tolerance_yaw=p.number("localization_tolerance_yaw", above=0.0))
+        localization_tolerance_yaw=p.number("localization_tolerance_yaw", above=0.0),
+        on_robot_fault=p.choice("on_robot_fault", ROBOT_FAULTS))
     mode = p.choice("mode", MODES)
     if mode == "real" and executor.localization != "amcl":
         raise p.fail("localization", f"must be amcl in real mode (real robots have no ground truth), got "
@@ -145,6 +167,15 @@ def read_manager_settings(params: Dict[str, Any], namespace: str,
     if decision_mode and decision_mode not in DECISION_MODES:
         raise p.fail("decision_mode", f"{decision_mode!r} is not one of {', '.join(DECISION_MODES)} "
                                       f"(or empty: config/task.yaml's)")
+    live = LiveFleetSettings(allocator=p.choice("allocator", ALLOCATORS), episodes=p.integer("episodes", minimum=1),
+                             seed=p.integer("seed", minimum=0), out=p.string("out"),
+                             end_when_done=p.boolean("end_when_done"),
+                             request_wait=p.number("request_wait", above=0.0))
+    if live.allocator == "replan":   # the replanning allocator decides on events
+        if decision_mode == "synchronous":
+            raise p.fail("decision_mode", "synchronous: allocator replan decides in event mode (set decision_mode "
+                                          "event, or leave it empty)")
+        decision_mode = "event"
     goal_timeout = p.raw("goal_timeout")   # a launch file's "90" arrives as a string, a YAML 90 as a number
     try:
         goal_timeout = check_goal_timeout(goal_timeout, p.location("goal_timeout"))
@@ -155,6 +186,6 @@ def read_manager_settings(params: Dict[str, Any], namespace: str,
                                marker_period=p.number("marker_period", minimum=0.0), executor=executor,
                                mode=mode, real=real,
                                hold_successors=HOLD_CHOICES[hold], decision_mode=decision_mode or None,
-                               goal_timeout=goal_timeout)
+                               goal_timeout=goal_timeout, live=live)
     p.check_all_used(known=[k for k in values if k in p.used])
     return settings

@@ -9,11 +9,14 @@ from __future__ import annotations
 
 import itertools
 import math
+import socket
 import threading
 import time
+import xmlrpc.client
 from dataclasses import dataclass
 from typing import Callable, List, Optional, Sequence
 
+import rosgraph
 import rospy
 from actionlib_msgs.msg import GoalID, GoalStatus, GoalStatusArray
 from move_base_msgs.msg import MoveBaseActionGoal, MoveBaseActionResult
@@ -43,6 +46,39 @@ class GoalResult:
     def describe(self) -> str:
         name = _STATE_NAMES.get(self.state, str(self.state))
         return f"move_base {name.lower()}" + (f": {self.text}" if self.text else "")
+
+
+class TimeoutTransport(xmlrpc.client.Transport):
+    """An XML-RPC transport whose connections give up after `timeout` s (rosgraph's have none)."""
+
+    def __init__(self, timeout: float):
+        super().__init__()
+        self.timeout = timeout
+
+    def make_connection(self, host):
+        connection = super().make_connection(host)
+        connection.timeout = self.timeout
+        return connection
+
+
+def node_gone(name: str, timeout_wall: float = 1.0) -> bool:
+    """Whether a node's process is gone: the master knows no such node, or nothing listens on its
+    XML-RPC port any more (a killed process's connection is refused). A node that is merely slow to
+    answer, and an unreachable master, do not count: that is not this node's fault."""
+    caller = rospy.get_name()
+    try:
+        uri = rosgraph.Master(caller).lookupNode(name)
+    except (rosgraph.masterapi.Error, rosgraph.masterapi.Failure):
+        return True
+    except (OSError, xmlrpc.client.Error):
+        return False
+    try:
+        xmlrpc.client.ServerProxy(uri, transport=TimeoutTransport(timeout_wall)).getPid(caller)
+    except ConnectionRefusedError:
+        return True
+    except (OSError, socket.timeout, xmlrpc.client.Error):
+        return False
+    return False
 
 
 class MoveBaseLink:
@@ -97,6 +133,10 @@ class MoveBaseLink:
         """Cancels every goal of this move_base, whoever sent it (an empty id: actionlib's
         cancel-all), e.g. to stop the robot whatever it was told."""
         self._cancel_pub.publish(GoalID())
+
+    def process_gone(self) -> bool:
+        """The move_base node's process is gone (node_gone; the node is `<namespace>/move_base`)."""
+        return node_gone(self.server_name)
 
     def forget(self) -> None:
         with self._lock:

@@ -12,7 +12,8 @@ whose scan stops fitting the map where localisation puts it (lost), a lost ROS m
 (ros/fleet_link.py watches, ros/safety.py decides), a goal move_base aborts, the e-stop, the
 node shutting down. A stop withdraws the drive permit of the robots' cmd_vel gates,
 cancels every goal and sends zero cmd_vel (held for `stop_hold`); the step returns `aborted`
-with the reason, which ends the episode (env/task_env.py) and names the robot and the part.
+with the reason, which ends the episode (env/task_env.py) and names the robot and the part; in event
+mode with `on_robot_fault: continue` a fault of one robot stops it alone (ros/real_events.py).
 Goal timeouts are the simulation's: each leg its own (ros/executor.py), on wall time.
 """
 from __future__ import annotations
@@ -83,7 +84,7 @@ class RealExecutor(RealEventMode):
             self._scan_fit = ScanFitWatch(self.namespaces, self.scenario.load_map(), self.tf, self.settings.map_frame,
                                           self.monitor)
         self._watch = FleetWatch(self.namespaces, self.monitor, self.trip, self.fleet_stop.send_permit,
-                                 self._scan_fit)
+                                 self._scan_fit, on_robot_fault=self.robot_fault)
         wait_wall(lambda: not self.monitor.missing(), wait, lambda: "nothing heard of " + ", ".join(self.monitor.missing()))
         wait_wall(lambda: all(link.pose() is not None for link in self.localizers), wait,
                   lambda: "no amcl_pose from " + ", ".join(link.namespace for link in self.localizers
@@ -112,6 +113,7 @@ class RealExecutor(RealEventMode):
         """Stops what runs, then drives every robot to its start pose (or takes where it stands)
         and waits for the operator's go. Real robots have no noise streams: `seed` changes nothing."""
         self._reset_events()
+        self.fleet_stop.grant_robot()   # every robot in the fleet again (a robot stopped alone included)
         now = time.monotonic()
         self.monitor.rearm(now)
         fault = self.monitor.fault(now)

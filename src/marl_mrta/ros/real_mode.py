@@ -1,7 +1,9 @@
 """The task manager's real-robot side (mode: real, docs/guide/real_robots.md): the operator's services
 `~go` and `~estop` (std_srvs/Trigger), the stop on node shutdown (Ctrl-C), and the record of an
 aborted episode written to `aborted_episode_file`, so that an episode the client can no longer
-receive (Ctrl-C, a lost master) still reaches a file.
+receive (Ctrl-C, a lost master) still reaches a file. With on_robot_fault continue, a robot stopped
+alone is written there too, with the episode so far (`aborted: false`, `robot_faults`); an abort
+later in the episode replaces it.
 """
 from __future__ import annotations
 
@@ -35,6 +37,7 @@ class RealModeServices:
         self.lock = lock
         self.partial_record = partial_record
         self.aborted_file = Path(aborted_file) if aborted_file else None
+        self._robot_faults: list = []   # this episode's robots stopped alone: {time, robot, reason}
         rospy.Service("~go", Trigger, self._on_go)
         rospy.Service("~estop", Trigger, self._on_estop)
         # A client shutdown hook runs before rospy closes its topics (its own pre-shutdown hook,
@@ -95,3 +98,18 @@ class RealModeServices:
                     "episodes": episode_rows([record]), "episode": record.to_dict()}
         write_result(self.aborted_file, document)
         rospy.logerr("episode aborted (%s): its record is in %s", record.abort_reason, self.aborted_file)
+
+    def episode_started(self) -> None:
+        self._robot_faults = []
+
+    def write_robot_fault(self, record: EpisodeRecord, robot: str, reason: str) -> None:
+        """A robot stopped alone (on_robot_fault continue): the episode so far and every robot fault
+        of it, in the same file; the episode goes on."""
+        self._robot_faults.append({"time": record.makespan, "robot": robot, "reason": reason})
+        if self.aborted_file is None:
+            return
+        document = {"scenario": str(self.scenario.source), "scenario_name": self.scenario.name, "executor": "ros",
+                    "mode": "real", "aborted": False, "robot_faults": list(self._robot_faults),
+                    "episode": record.to_dict()}
+        write_result(self.aborted_file, document)
+        rospy.logerr("robot fault written to %s: %s", self.aborted_file, reason)

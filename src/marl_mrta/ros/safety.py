@@ -7,13 +7,18 @@ and asks it, several times a second, whether to stop. Once tripped, the monitor 
 reason until it is re-armed (a new episode's reset), so a stop is never undone by a robot that
 comes back. Faults from elsewhere (an e-stop, the node shutting down, a move_base goal that
 aborted) trip it directly. Times are seconds of a monotonic wall clock.
+
+A fault concerns one robot (its odometry, scan or move_base silent, its localisation lost) or the
+fleet (the master lost, and the trips from elsewhere). With `on_robot_fault: continue` the executor
+stops a robot with a fault of its own alone, and `excuse()`s it: a robot out of the fleet is no
+longer watched, until it joins again (`watch_again`) or the next episode.
 """
 from __future__ import annotations
 
 import math
 import threading
 from dataclasses import dataclass
-from typing import Dict, List, Optional, Sequence, Tuple
+from typing import Dict, List, Optional, Sequence, Set, Tuple
 
 #: What the monitor hears from each robot, and what each part is called in a reason.
 PARTS = ("odom", "scan", "move_base")
@@ -53,6 +58,7 @@ class SafetyMonitor:
         self._armed_at: Optional[float] = None        # silence counts from here at the earliest
         # robot -> (first, count, latest) of its bad fits in a row
         self._unfit: Dict[int, Tuple[float, int, float]] = {}
+        self._excused: Set[int] = set()               # robots out of the fleet: not watched
 
     # ------------------------------------------------------------------ reports
     def heard(self, robot: int, part: str, now: float) -> None:
@@ -86,27 +92,51 @@ class SafetyMonitor:
             return [f"{ns} {part}" for i, ns in enumerate(self.robots) for part in PARTS if (i, part) not in self._heard]
 
     def fault(self, now: float) -> str:
-        """Why the fleet must stop now ("" when nothing is wrong). Parts never heard count from
-        the arming time (start-up has its own wait, missing())."""
+        """Why the fleet must stop now ("" when nothing is wrong): the first robot's fault, else the
+        fleet's. Parts never heard count from the arming time (start-up has its own wait, missing())."""
+        robots = self.robot_faults(now)
+        return robots[0][1] if robots else self.fleet_fault(now)
+
+    def robot_faults(self, now: float) -> List[Tuple[int, str]]:
+        """(robot, reason) of every robot in the fleet with a fault of its own, in robot order."""
         with self._lock:
-            armed = self._armed_at
-            for i, ns in enumerate(self.robots):
-                for part in PARTS:
-                    last = self._heard.get((i, part), armed)
-                    if last is None:
-                        continue
-                    silent = now - last
-                    if silent > self.limits.silent_after(part):
-                        return f"{ns}: {part} silent for {silent:.1f} s"
-                first, count, fit = self._unfit.get(i, (now, 0, 1.0))
-                if count >= self.limits.scan_fit_lost_scans:
-                    return (f"{ns}: localisation lost: its last {count} scans fit the map at the estimated pose below "
-                            f"{self.limits.scan_fit_min * 100:.0f} % ({now - first:.1f} s, the latest "
-                            f"{fit * 100:.0f} %)")
+            return [(i, reason) for i in range(len(self.robots)) if i not in self._excused
+                    for reason in [self._robot_fault(i, now)] if reason]
+
+    def fleet_fault(self, now: float) -> str:
+        """A fault that concerns every robot ("" when none): the ROS master unreachable."""
+        with self._lock:
             if self._master_ok is not None and now - self._master_ok > self.limits.master_lost_after:
                 detail = f" ({self._master_error})" if self._master_error else ""
                 return f"ROS master unreachable for {now - self._master_ok:.1f} s{detail}"
         return ""
+
+    def _robot_fault(self, i: int, now: float) -> str:
+        ns = self.robots[i]
+        for part in PARTS:
+            last = self._heard.get((i, part), self._armed_at)
+            if last is None:
+                continue
+            silent = now - last
+            if silent > self.limits.silent_after(part):
+                return f"{ns}: {part} silent for {silent:.1f} s"
+        first, count, fit = self._unfit.get(i, (now, 0, 1.0))
+        if count >= self.limits.scan_fit_lost_scans:
+            return (f"{ns}: localisation lost: its last {count} scans fit the map at the estimated pose below "
+                    f"{self.limits.scan_fit_min * 100:.0f} % ({now - first:.1f} s, the latest "
+                    f"{fit * 100:.0f} %)")
+        return ""
+
+    def excuse(self, robot: int) -> None:
+        """The robot is out of the fleet: its silence no longer counts."""
+        with self._lock:
+            self._excused.add(robot)
+            self._unfit.pop(robot, None)
+
+    def watch_again(self, robot: int) -> None:
+        """The robot is back in the fleet: watched again from what was last heard of it."""
+        with self._lock:
+            self._excused.discard(robot)
 
     def check(self, now: float) -> str:
         """Trips on a fault; returns the reason the fleet is stopped ("" while it may drive)."""
@@ -128,6 +158,7 @@ class SafetyMonitor:
         """Clears a stop (a new episode) unless a fault persists; returns that fault or ""."""
         with self._lock:
             self._reason, self._tripped_at, self._armed_at = "", None, now
+            self._excused.clear()
         return self.check(now)
 
     @property

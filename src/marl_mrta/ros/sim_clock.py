@@ -23,14 +23,17 @@ class SimClock:
 
     In lock-step the simulator only advances when every controller has answered, so a dead
     move_base stalls /clock just like a dead simulator: both end the wait with SimulatorLost;
-    `diagnose()` (optional) names the culprit in the message.
+    `diagnose()` (optional) names the culprit in the message. `on_stall()` (optional) is asked
+    first: True when it removed the cause (a robot whose move_base is gone let out of the
+    lock-step, on_robot_fault continue), and the wait goes on.
     """
 
     def __init__(self, lost_after_wall: float, poll_wall: float = 0.002,
-                 diagnose: Optional[Callable[[], str]] = None):
+                 diagnose: Optional[Callable[[], str]] = None, on_stall: Optional[Callable[[], bool]] = None):
         self.lost_after_wall = lost_after_wall
         self.poll_wall = poll_wall
         self.diagnose = diagnose
+        self.on_stall = on_stall
 
     def now(self) -> float:
         return rospy.get_time()
@@ -49,6 +52,9 @@ class SimClock:
             if sim_now != last_sim:
                 last_sim, last_progress_wall = sim_now, time.monotonic()
             elif time.monotonic() - last_progress_wall > self.lost_after_wall:
+                if self.on_stall is not None and self.on_stall():
+                    last_progress_wall = time.monotonic()
+                    continue
                 detail = self.diagnose() if self.diagnose else ""
                 raise SimulatorLost(f"no /clock progress for {self.lost_after_wall:.1f} s of wall time at sim time "
                                     f"{sim_now:.2f} s" + (f" ({detail})" if detail else ""))

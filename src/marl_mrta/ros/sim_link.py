@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 import threading
 from dataclasses import dataclass
-from typing import List, Optional, Sequence, Tuple
+from typing import Callable, List, Optional, Sequence, Set, Tuple
 
 import rospy
 from geometry_msgs.msg import Pose2D as Pose2DMsg
@@ -23,6 +23,9 @@ from marl_mrta.srv import ResetSim, ResetSimRequest, RunSim, StepSim
 from marl_mrta.ros.sim_clock import SimulatorLost, call_bounded, wait_wall
 
 SIMULATOR = "/simulator"
+#: next_stamp of the answer made for a controller that is gone: the simulator need not wait for it
+#: before this (2^31 - 1 s, the end of ROS time).
+NEVER = rospy.Time(2 ** 31 - 1)
 
 
 def quaternion_to_yaw(q) -> float:
@@ -75,6 +78,11 @@ class SimulatorLink:
         self._acked = [-1] * len(self.robots)
         self._goal_end = [0] * len(self.robots)   # LockstepAck.goal_end_tick, the latest answer's
         self._collisions: List[Tuple[float, int]] = []   # (sim time, robot index)
+        self._released: Set[int] = set()   # robots whose controller is gone: no answer waited for
+        self._ack_pub: Optional[rospy.Publisher] = None
+        #: Asked when a wait for the controllers' answers runs out (RosExecutor: a controller that
+        #: is gone released, on_robot_fault continue); True: the wait goes on.
+        self.on_stall: Optional[Callable[[], bool]] = None
         self._reset = rospy.ServiceProxy(SIMULATOR + "/reset", ResetSim)
         self._pause = rospy.ServiceProxy(SIMULATOR + "/pause", SetBool)
         self._step = rospy.ServiceProxy(SIMULATOR + "/step", StepSim)
@@ -107,6 +115,8 @@ class SimulatorLink:
         if self.tracks_answers:
             rospy.Subscriber(SIMULATOR + "/lockstep_ack", LockstepAck, self._on_ack, queue_size=100,
                              tcp_nodelay=True)
+            # Made at start: release() must reach the simulator at once.
+            self._ack_pub = rospy.Publisher(SIMULATOR + "/lockstep_ack", LockstepAck, queue_size=10, tcp_nodelay=True)
         return config
 
     @property
@@ -148,6 +158,33 @@ class SimulatorLink:
                                              align_ticks=align_ticks, until_first_goal_end=first_goal_end),
                      self.answer_wall, f"{SIMULATOR}/run_until {tick}")
 
+    def release(self, robot: int) -> None:
+        """The robot's lock-step controller is gone: the simulator is answered for it once, with an
+        answer that needs no tick before the end of time (as stock_lockstep answers for a controller
+        that cannot), and has_state() no longer waits for it. A controller that comes back answers
+        again itself (its answers replace this one); watch_again() then waits for it again."""
+        with self._lock:
+            self._released.add(robot)
+        tick, _ = self.step(0)
+        if self._ack_pub is not None:
+            self._ack_pub.publish(LockstepAck(robot=self.robots[robot], tick=tick, cmd_vel_count=0, next_stamp=NEVER,
+                                              goal_end_tick=0))
+
+    def watch_again(self, robot: Optional[int] = None) -> None:
+        """Waits for the robot's (None: every robot's) answers again."""
+        with self._lock:
+            if robot is None:
+                self._released.clear()
+            else:
+                self._released.discard(robot)
+
+    def silent_controllers(self, tick: int) -> List[int]:
+        """Robots whose lock-step controller has not answered `tick` (released ones aside)."""
+        config = self.config
+        with self._lock:
+            return [i for i, ns in enumerate(self.robots) if self.tracks_answers and config.answers_lockstep(ns)
+                    and i not in self._released and self._acked[i] < tick]
+
     def reset(self, poses: Sequence[Tuple[float, float, float]], seed: Optional[int] = None) -> None:
         """This arena's robots to `poses` (map frame), which become their start poses; with a
         `seed`, their noise streams restart from it."""
@@ -170,7 +207,7 @@ class SimulatorLink:
         with self._lock:
             return (all(t is not None and t[0] >= stamp - 1e-9 for t in self._truth)
                     and all(self._acked[i] >= tick for i, ns in enumerate(self.robots)
-                            if self.tracks_answers and config.answers_lockstep(ns)))
+                            if self.tracks_answers and config.answers_lockstep(ns) and i not in self._released))
 
     def wait_caught_up(self, tick: int, stamp: float, timeout_wall: Optional[float] = None) -> None:
         """Waits until has_state(tick, stamp), at most `timeout_wall` s (default: the time after
@@ -179,14 +216,17 @@ class SimulatorLink:
             wait_wall(lambda: self.has_state(tick, stamp), timeout_wall or self.answer_wall,
                       f"ground truth and lock-step answers of tick {tick}")
         except SimulatorLost as lost:
+            if self.on_stall is not None and self.on_stall():
+                self.wait_caught_up(tick, stamp, timeout_wall)
+                return
             raise SimulatorLost(f"{lost}; {self.describe_lag(tick, stamp)}") from None
 
     def describe_lag(self, tick: int, stamp: Optional[float] = None) -> str:
         """Which robots have not answered `tick` (or sent ground truth of `stamp`)."""
         config = self.config
         with self._lock:
-            silent = [ns for i, ns in enumerate(self.robots)
-                      if self.tracks_answers and config.answers_lockstep(ns) and self._acked[i] < tick]
+            silent = [ns for i, ns in enumerate(self.robots) if self.tracks_answers and config.answers_lockstep(ns)
+                      and i not in self._released and self._acked[i] < tick]
             no_truth = [ns for i, ns in enumerate(self.robots)
                         if stamp is not None and (self._truth[i] is None or self._truth[i][0] < stamp - 1e-9)]
         parts = []
