@@ -70,6 +70,8 @@ def test_policy_method_runs_a_saved_actor(tmp_path, capsys):
     (["--method", "exact", "--workers", "0"], "evaluate: --workers: must be at least 1, got 0"),
     (["--method", "exact", "--precedence-margin", "-1"], "evaluate: --precedence-margin: must be a finite number"),
     (["--method", "exact", "--precedence-margin", "nan"], "evaluate: --precedence-margin: must be a finite number"),
+    (["--method", "replan"], "evaluate: --method replan: the replanning allocator decides on events"),
+    (["--method", "replan", "--executor", "ros"], "evaluate: --method replan: runs in process here"),
 ])
 def test_bad_input_is_one_line_and_exit_2(argv, message, tmp_path, capsys):
     code = main(argv + ["--scenario", LAB_2R, "--out", str(tmp_path / "x.json"), "--quiet", "--no-exact"])
@@ -169,3 +171,22 @@ def test_a_precedence_margin_keeps_every_plan_in_order_by_that_much(tmp_path, ca
         assert plan["thinnest_precedence_margin"] is None or plan["thinnest_precedence_margin"] > 1.0
         assert result["summary"]["complete_pct"] == 100.0 and result["summary"]["logic_consistent_pct"] == 100.0
     assert "with a precedence margin of 1 s" in capsys.readouterr().out
+
+
+def test_the_replanning_allocator_finishes_a_live_fleet_that_a_fixed_plan_cannot(tmp_path):
+    """live_lab_4r: tasks released late and tb3_1 lost at 8 s. The GA's plan, fixed at the start,
+    leaves tb3_1's tasks undone; the replanning allocator finishes every task in order."""
+    live = str(Path(__file__).resolve().parents[1] / "data" / "scenarios" / "live_lab_4r.xml")
+    out = tmp_path / "live.json"
+    assert main(["--scenario", live, "--method", "replan,ga", "--decision-mode", "event", "--episodes", "1",
+                 "--out", str(out), "--quiet", "--no-exact"]) == 0
+    summaries = {r["summary"]["method"]: r["summary"] for r in json.loads(out.read_text())["results"]}
+    assert summaries["replan"]["complete_pct"] == 100.0 and summaries["replan"]["logic_consistent_pct"] == 100.0
+    assert summaries["ga"]["complete_pct"] < 100.0
+
+
+def test_a_live_scenario_in_synchronous_steps_is_one_line_and_exit_2(tmp_path, capsys):
+    live = str(Path(__file__).resolve().parents[1] / "data" / "scenarios" / "live_lab_4r.xml")
+    assert main(["--scenario", live, "--method", "ga", "--out", str(tmp_path / "x.json"), "--quiet", "--no-exact"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--decision-mode event" in err[0] and not (tmp_path / "x.json").exists()

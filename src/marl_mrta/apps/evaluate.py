@@ -5,6 +5,7 @@
     evaluate --method exact --episodes 5 --executor ros     # through a running task manager (tasks.launch)
     evaluate --method policy,rollout --policy generalist --scenario my_floor.xml   # the actor, and its rollout plan
     evaluate --method policy,lookahead --policy generalist --scenario my_floor.xml # the robots' own decisions, alone and looking ahead
+    evaluate --method replan,ga --decision-mode event --scenario live_floor.xml    # a live fleet's allocator beside a fixed plan
 
 Writes the JSON (summaries, plans, the reference: best known makespan, proven lower bound and
 gap, representative episodes) and one Gantt chart PNG per method (<out stem>_<method>_gantt.png).
@@ -35,7 +36,7 @@ from marl_mrta.common.results import write_result
 from marl_mrta.env.factory import EXECUTORS, make_env
 from marl_mrta.env.settings import DECISION_MODES, MASK_MODES
 from marl_mrta.evaluation.loop import run_episodes
-from marl_mrta.evaluation.policies import LearnedPolicy, PolicyLoadError, plan_policy
+from marl_mrta.evaluation.policies import LearnedPolicy, PolicyLoadError, ReplanPolicy, plan_policy
 from marl_mrta.evaluation.lookahead import Lookahead
 from marl_mrta.evaluation.robot_actor import in_process_team
 from marl_mrta.evaluation.rollout import RolloutError, rollout_plan
@@ -44,7 +45,7 @@ from marl_mrta.mappo.policy import PolicyFileError, load_policy
 from marl_mrta.model.goal_timeout import check_goal_timeout, describe_timeout
 from marl_mrta.model.scenario import Scenario, ScenarioError
 
-METHODS = ("random", "ga", "exact", "auction", "policy", "lookahead", "rollout")
+METHODS = ("random", "ga", "exact", "auction", "policy", "lookahead", "rollout", "replan")
 #: The methods that act with an actor file (--policy).
 POLICY_METHODS = ("policy", "lookahead", "rollout")
 #: "ros": episodes run in the ROS graph through rl_task_allocation_manager's services.
@@ -127,6 +128,9 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> argparse.Namespace:
         raise UsageError(f"--precedence-margin: must be a finite number of seconds >= 0, got {args.precedence_margin:g}")
     if args.workers is not None and args.workers < 1:
         raise UsageError(f"--workers: must be at least 1, got {args.workers}")
+    if "replan" in methods and args.executor == "ros":
+        raise UsageError("--method replan: runs in process here; in the ROS graph the task manager runs it "
+                         "(allocator:=replan, docs/guide/live_fleet.md)")
     if args.executor == "ros" and args.profile:
         raise UsageError("--profile: noise profiles belong to the embedded executor (the simulator has its own)")
     args.methods = methods
@@ -257,6 +261,8 @@ def evaluate(args: argparse.Namespace) -> int:
                        seed=args.seed, hold_successors=True if args.hold_successors else None,
                        decision_mode=args.decision_mode, goal_timeout=args.goal_timeout)
     scenario = env.scenario
+    if "replan" in args.methods and env.settings.decision_mode != "event":
+        raise UsageError("--method replan: the replanning allocator decides on events; add --decision-mode event")
     out = output_path(args, scenario.name)
     settings = load_baseline_settings().with_cpsat(args.time_limit, args.workers)
     margin = settings.precedence_margin if args.precedence_margin is None else args.precedence_margin
@@ -305,6 +311,8 @@ def evaluate(args: argparse.Namespace) -> int:
         elif method == "lookahead":
             lookahead = lookahead_for(args, env, settings, margin)
             policy = in_process_team(lookahead.policy, lookahead)
+        elif method == "replan":
+            policy = ReplanPolicy(env, settings.replan)
         else:
             policy = plan_policy(plan, env.n_agents, env.n_tasks, mode)
         progress = None if args.quiet else ProgressLine(f"{method} on {scenario.name}")

@@ -91,6 +91,9 @@ def make_env(scenario: Union[str, Path, Scenario], executor: Union[str, Executor
         if decision_mode not in DECISION_MODES:
             raise ConfigError(f"decision_mode: {decision_mode!r} is not one of {', '.join(DECISION_MODES)}")
         settings = replace(settings, decision_mode=decision_mode)
+    if scenario.live and settings.decision_mode != "event":   # the paper's steps have no instant for them
+        raise ScenarioError(f"{scenario.source}: <task release> and <faults> change the fleet while it works, which "
+                            "event mode alone does: run it with decision_mode event (--decision-mode event)")
     environment = EventTaskEnvironment if settings.decision_mode == "event" else TaskEnvironment
     scenario = resolved_scenario(scenario, settings, embedded_config)
     try:
