@@ -28,10 +28,10 @@ import numpy as np
 
 from marl_mrta.common.paths import default_config_path, package_root
 from marl_mrta.common.results import write_result
-from marl_mrta.env.factory import scenario_travel_table
 from marl_mrta.env.settings import load_embedded_settings
 from marl_mrta.model.generator import ScenarioRequest, generate_scenarios
 from marl_mrta.model.scenario import load_scenario
+from marl_mrta.model.travel import build_travel_table, scenario_poses, scenario_travel_model
 
 ROBOTS, TASKS = 16, 32
 TRAVEL_GOAL_S = 10.0
@@ -90,9 +90,10 @@ def bench(repeats: int, log=print) -> Dict[str, Any]:
         for name, path in floor_scenarios(work).items():
             scenario = load_scenario(path)
             seconds = []
-            for _ in range(repeats):
+            model = scenario_travel_model(scenario, load_embedded_settings().travel)
+            for _ in range(repeats):   # planned anew each time: the process's table cache left out
                 started = time.perf_counter()
-                scenario_travel_table(scenario)
+                build_travel_table(str(Path(scenario.map_path).resolve()), scenario_poses(scenario), model)
                 seconds.append(time.perf_counter() - started)
             map_yaml = str(scenario.map_path)
             sim = cores("bench_sim_core", map_yaml, str(ROBOTS))[0]

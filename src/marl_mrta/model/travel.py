@@ -175,12 +175,18 @@ def scenario_poses(scenario: Scenario) -> List[Tuple[float, float, float]]:
             + [(t.goal.x, t.goal.y, t.goal.yaw) for t in scenario.tasks])
 
 
+def scenario_travel_model(scenario: Scenario, model: TravelModel) -> TravelModel:
+    """The travel model with the scenario's robots' navigation files when it names them (<robots navigation>)."""
+    if scenario.navigation_dir is not None:
+        return replace(model, nav_config_dir=str(scenario.navigation_dir))
+    return model
+
+
 def nominal_travel_table(scenario: Scenario, model: TravelModel) -> TravelTable:
     """The cached table of a scenario, planned with its robots' navigation files when it names
     them (<robots navigation>); ScenarioError naming the robot or task navigation cannot plan
     from or to, ConfigError for a bad navigation parameter file."""
-    if scenario.navigation_dir is not None:
-        model = replace(model, nav_config_dir=str(scenario.navigation_dir))
+    model = scenario_travel_model(scenario, model)
     try:
         return cached_travel_table(str(scenario.map_path), scenario_poses(scenario), model)
     except PlanningError as error:
