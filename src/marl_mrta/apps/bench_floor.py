@@ -63,7 +63,8 @@ def floor_scenarios(work: Path) -> Dict[str, Path]:
     out: Dict[str, Path] = {}
     for name, layout in floors.items():
         request = ScenarioRequest(n_robots=ROBOTS, n_tasks=TASKS, max_leg=10_000.0, name=name, **layout)
-        scenario = generate_scenarios(1, 0, work / name, request, model)[0]
+        scenario = generate_scenarios(1, 0, work / name, request, model,
+                                      keep=("n_robots", "n_tasks", "layout", "width", "height"))[0]
         out[name] = Path(scenario.source)
     return out
 
