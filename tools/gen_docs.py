@@ -55,6 +55,8 @@ README_ROWS: List[Tuple[str, str]] = [
     ("bench_generalise", "after 60 s of fine-tuning / best bound, mean of 10"),
     ("bench_sim", "core real-time factor, 4 robots, per CPU second of one core"),
     ("bench_nav_vs_stock", "lab: time built-in / stock, median per leg"),
+    ("bench_floor", "rooms_60x60: travel table, 16 robots x 32 tasks"),
+    ("bench_fleet", "site_16r: releases, 1 lost: live makespan / told everything, mean of 5 (max beside it in the file)"),
 ]
 
 

@@ -207,6 +207,8 @@ def test_a_submitted_task_is_done_after_its_predecessor():
     (TaskRequest("C1", "C", -50.0, 2.5, 0.0), "off the map"),
     (TaskRequest("C1", "C", 3.5, 2.5, 0.0, -1.0), "service_time must not be negative"),
     (TaskRequest("C1", "C", 4.45, 4.2, 0.0), "closer than a robot's footprint to the goal of task B3"),
+    # a free cell next to a wall: navigation cannot plan to it, so no robot can reach it
+    (TaskRequest("C1", "C", 2.0, 1.35, 0.0), "inscribed zone of the global costmap"),
 ])
 def test_a_bad_submission_gives_one_line_and_changes_nothing(request_, problem):
     env, policy, output = started_episode()
