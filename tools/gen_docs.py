@@ -48,13 +48,13 @@ RESULT_FILES: Dict[str, str] = {
 README_ROWS: List[Tuple[str, str]] = [
     ("bench_task", "lab_2r GA = exact optimum"),
     ("bench_task_ros", "lab_2r ROS random / GA"),
-    ("bench_task_ros", "lab_2r exact schedule: |embedded - ROS| / ROS"),
     ("bench_mappo", "time to policy, embedded, lab_2r (median, tuned)"),
     ("bench_mappo", "tuned greedy / exact, 70000 steps"),
     ("bench_generalise", "zero-shot, the robots' own decisions with lookahead (no training) / best bound, mean"),
     ("bench_generalise", "after 60 s of fine-tuning / best bound, mean of 10"),
     ("bench_sim", "core real-time factor, 4 robots, per CPU second of one core"),
     ("bench_nav_vs_stock", "lab: time built-in / stock, median per leg"),
+    ("bench_scale", "16x32 (site_16r) bound and schedule (evaluate's reference) in"),
     ("bench_floor", "rooms_60x60: travel table, 16 robots x 32 tasks"),
     ("bench_fleet", "site_16r: releases, 1 lost: live makespan / told everything, mean of 5 (max beside it in the file)"),
 ]
