@@ -55,6 +55,7 @@ README_ROWS: List[Tuple[str, str]] = [
     ("bench_sim", "core real-time factor, 4 robots, per CPU second of one core"),
     ("bench_nav_vs_stock", "lab: time built-in / stock, median per leg"),
     ("bench_scale", "16x32 (site_16r) bound and schedule (evaluate's reference) in"),
+    ("bench_event", "site_16r: event best / synchronous best"),
     ("bench_floor", "rooms_60x60: travel table, 16 robots x 32 tasks"),
     ("bench_fleet", "site_16r: releases, 1 lost: live makespan / told everything, mean of 5 (max beside it in the file)"),
 ]
