@@ -2,8 +2,7 @@
 # Runs the package's tests in a built catkin workspace (sourced), in one of two tiers:
 #   tools/run_tests.sh all BUILD_DIR    every test, in three streams side by side:
 #       two wall-clock streams: the rostests whose file says `tier: wallclock`, and the Python
-#         tests marked wallclock; they drive robots in real time, or wait on the processes they start, with
-#         little CPU, at normal priority
+#         tests marked wallclock; they drive robots in real time with little CPU, at normal priority
 #       the CPU stream, at lower priority (nice): the gtests, the other Python tests, the other
 #         rostests, one after another
 #   tools/run_tests.sh fast BUILD_DIR   the gtests and the Python tests marked neither ros,
