@@ -32,7 +32,7 @@ import numpy as np
 
 from marl_mrta.env.api import REWARD_COMPONENTS, StepInfo, StepOutput
 from marl_mrta.env.live_fleet import LiveFleetMixin
-from marl_mrta.env.observation import ObservationEncoder, float32_array
+from marl_mrta.env.observation import float32_array
 from marl_mrta.env.settings import TaskSettings
 from marl_mrta.model.event_rules import DRIVING, HOLDING, IDLE, SERVING, EventOutcome, EventRules
 from marl_mrta.model.reward import RewardConfig, event_rewards
@@ -56,13 +56,7 @@ class EventTaskEnvironment(LiveFleetMixin):
         self.reward = reward
         self.settings = settings
         self.n_agents = scenario.n_robots
-        self.n_tasks = scenario.n_tasks
-        self.n_actions = scenario.n_tasks + 1
-        self.encoder = ObservationEncoder(scenario)
-        self.obs_dim = self.encoder.obs_dim
-        self.state_dim = self.encoder.state_dim
-        self._goal_xy = [(t.goal.x, t.goal.y) for t in scenario.tasks]
-        self._goal_pose = [(t.goal.x, t.goal.y, t.goal.yaw) for t in scenario.tasks]
+        self._set_scenario(scenario)   # scenario, task count, encoder, goals (LiveFleetMixin)
         self._timeout = scenario.episode_timeout
         self.rules = EventRules(scenario.n_robots, scenario.predecessors, [t.service_time for t in scenario.tasks],
                                 settings.min_step, [t.release <= 0.0 for t in scenario.tasks])
