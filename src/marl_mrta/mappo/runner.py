@@ -631,10 +631,13 @@ class Runner:
         rate = (self.env_steps - session_steps) / max(elapsed, 1e-9)
         remaining = max(0, self.config.n_updates * self.config.batch_size - self.env_steps)
         eta = time.strftime("%H:%M:%S", time.gmtime(remaining / max(rate, 1e-9)))
+        # No update yet when the wall-time budget ended during the first batch (a loaded machine).
+        learning = (f"loss {metrics['loss']:.3f} | entropy {metrics['entropy']:.2f}" if metrics
+                    else "loss - | entropy -")
         greedy = f" | greedy {evaluation['makespan']:.1f} s" if evaluation is not None else ""
         return (f"update {self.update}/{self.config.n_updates} | episodes {self.episodes} | "
                 f"steps {self.env_steps} | {rate:.3g} steps/s | makespan {makespan}{greedy} | "
-                f"loss {metrics['loss']:.3f} | entropy {metrics['entropy']:.2f} | ETA {eta}")
+                f"{learning} | ETA {eta}")
 
     # ---------------------------------------------------------------- whole run
     def _handle_stop_signal(self, signum, frame) -> None:
